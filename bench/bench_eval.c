@@ -1,0 +1,121 @@
+/* Benchmark: nanoseconds per tape clause and per box (or point) for the point,
+ * interval and interval+gradient evaluators, in batches of TAPE_LANES, on
+ * scene files.  Usage: ivoct_bench_eval [--seconds S] SCENE...
+ * Prints one row per scene and the ratios interval/point and gradient/interval. */
+#define _POSIX_C_SOURCE 200809L
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "../scene/scene.h"
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+enum { NBOX = 1024 }; /* a working set that stays in cache, like the octree's */
+
+typedef struct {
+    const tape_t *t;
+    tape_ws_t *ws;
+    iv_box_t box[NBOX];
+    double px[NBOX], py[NBOX], pz[NBOX];
+    iv_t F[NBOX];
+    iv_grad_t G[NBOX];
+    double P[NBOX];
+} bench_t;
+
+static void run_point(bench_t *b)
+{
+    for (int i = 0; i < NBOX; i += TAPE_LANES)
+        tape_eval_point(b->t, b->ws, TAPE_LANES, b->px + i, b->py + i, b->pz + i, b->P + i);
+}
+
+static void run_interval(bench_t *b)
+{
+    for (int i = 0; i < NBOX; i += TAPE_LANES)
+        tape_eval_interval(b->t, b->ws, TAPE_LANES, b->box + i, b->F + i);
+}
+
+static void run_grad(bench_t *b)
+{
+    for (int i = 0; i < NBOX; i += TAPE_LANES)
+        tape_eval_grad(b->t, b->ws, TAPE_LANES, b->box + i, b->G + i);
+}
+
+/* ns per clause per box: repeat for about `seconds`, best of 3 rounds */
+static double measure(bench_t *b, void (*fn)(bench_t *), double seconds)
+{
+    double best = 1e300;
+    for (int round = 0; round < 3; round++) {
+        long reps = 0;
+        double t0 = now(), t1;
+        do {
+            fn(b);
+            reps++;
+            t1 = now();
+        } while (t1 - t0 < seconds / 3);
+        double ns = (t1 - t0) * 1e9 / ((double)reps * NBOX * b->t->n);
+        if (ns < best)
+            best = ns;
+    }
+    return best;
+}
+
+int main(int argc, char **argv)
+{
+    double seconds = 0.6;
+    int first = 1;
+    if (argc > 2 && !strcmp(argv[1], "--seconds")) {
+        seconds = atof(argv[2]);
+        first = 3;
+    }
+    if (first >= argc) {
+        fprintf(stderr, "usage: ivoct_bench_eval [--seconds S] SCENE...\n");
+        return 2;
+    }
+    printf("%-26s %7s %9s %9s %9s %8s %8s\n", "scene", "clauses", "point_ns", "interval_ns",
+           "grad_ns", "iv/pt", "grad/iv");
+    bench_t *b = malloc(sizeof *b);
+    uint64_t seed = 12345;
+    for (int a = first; a < argc; a++) {
+        scene_t s;
+        ivoct_error_t err;
+        ivoct_error_clear(&err);
+        if (scene_load(argv[a], &s, &err)) {
+            char buf[1024];
+            fprintf(stderr, "%s\n", ivoct_error_format(&err, buf, sizeof buf));
+            return 2;
+        }
+        b->t = s.tape;
+        b->ws = tape_ws_new(s.tape->n);
+        /* cells of a depth-6 octree at random places, like the cells the
+         * builder evaluates */
+        for (int i = 0; i < NBOX; i++) {
+            double c[3];
+            for (int k = 0; k < 3; k++) {
+                seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+                double u = (double)(seed >> 11) * 0x1p-53;
+                double lo = s.box[2 * k], hi = s.box[2 * k + 1], w = (hi - lo) / 64;
+                c[k] = lo + u * (hi - lo - w);
+            }
+            double w[3] = {(s.box[1] - s.box[0]) / 64, (s.box[3] - s.box[2]) / 64,
+                           (s.box[5] - s.box[4]) / 64};
+            b->box[i] = (iv_box_t){{c[0], c[0] + w[0]}, {c[1], c[1] + w[1]}, {c[2], c[2] + w[2]}};
+            b->px[i] = c[0], b->py[i] = c[1], b->pz[i] = c[2];
+        }
+        double pt = measure(b, run_point, seconds);
+        double iv = measure(b, run_interval, seconds);
+        double gr = measure(b, run_grad, seconds);
+        printf("%-26s %7u %9.3f %9.3f %9.3f %8.2f %8.2f\n", s.name, s.tape->n, pt, iv, gr,
+               iv / pt, gr / iv);
+        tape_ws_free(b->ws);
+        scene_free(&s);
+    }
+    free(b);
+    return 0;
+}

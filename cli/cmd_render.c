@@ -1,0 +1,373 @@
+/* ivoct render — ray cast a scene into a PNG and/or the .vti render buffers. */
+#define _POSIX_C_SOURCE 200809L
+#include <ctype.h>
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "../io/io.h"
+#include "../ray/ray.h"
+#include "../scene/scene.h"
+#include "cli.h"
+
+static const char HELP[] =
+    "usage: ivoct render SCENE [options]\n"
+    "\n"
+    "Ray cast the surface f = 0 of a scene: one primary ray per pixel from the\n"
+    "scene's camera, through the pixel centre; the first root of f along each ray\n"
+    "is found by a root finder on g(t) = f(eye + t*dir), shaded (Lambert + ambient\n"
+    "from the normal grad f/|grad f|) and written out.  Every method but sampling\n"
+    "is certified: a miss means no root on the ray inside the box; see\n"
+    "ray/README.md for the methods and the tolerance for double roots.\n"
+    "\n"
+    "  --no-octree       search each ray over the whole scene box (the default for\n"
+    "                    now; --octree is not available yet)\n"
+    "  --octree F.ivo    search only the surface leaves of a saved octree\n"
+    "  --method M        mitchell | newton | newton-ah | mrfro | mrfro-newton |\n"
+    "                    lipschitz | sampling (not certified)\n"
+    "                    (scene [render] method, default newton-ah)\n"
+    "  --size WxH        image size in pixels (scene [camera] size, default 300x300)\n"
+    "  --threads N       threads (default: all cores); the outputs are the same for any N\n"
+    "  --png F           the shaded image, 8-bit RGB\n"
+    "  --vti F           the render buffers as VTK ImageData: per pixel t (NaN on a\n"
+    "                    miss), hit, point, normal, dir; camera and method as field data\n"
+    "  --frames N        a turntable of N views about the camera's up axis through the\n"
+    "                    target, written as F_000.png, F_001.png, ... (default 1: F)\n"
+    "  --stats F.json    statistics: method, octree, width, height, rays, hits,\n"
+    "                    time_s, tape_evals, leaves_visited, ... (totals over frames)\n"
+    "  --quiet           no summary on stdout, no progress bar\n";
+
+typedef struct progress {
+    double start;
+    int shown, frame, frames;
+} progress_t;
+
+/* A bar on stderr once the render has lasted a second (only when stderr is a
+ * terminal and not --quiet). */
+static void show_progress(void *user, double fraction)
+{
+    progress_t *p = user;
+    if (!p->shown && omp_get_wtime() - p->start < 1.0)
+        return;
+    p->shown = 1;
+    double total = (p->frame + fraction) / p->frames;
+    int width = 40, full = (int)(total * width + 0.5);
+    fprintf(stderr, "\rrendering [%.*s%*s] %3d%%", full, "########################################",
+            width - full, "", (int)(total * 100 + 0.5));
+    if (total >= 1.0)
+        fputc('\n', stderr);
+    fflush(stderr);
+}
+
+/* "WxH", both in 1..RAY_MAX_SIZE */
+static int parse_size(const char *text, int *w, int *h)
+{
+    char *end;
+    if (!isdigit((unsigned char)text[0]))
+        return -1;
+    long a = strtol(text, &end, 10);
+    if (*end != 'x' && *end != 'X')
+        return -1;
+    const char *second = end + 1;
+    if (!isdigit((unsigned char)second[0]))
+        return -1;
+    long b = strtol(second, &end, 10);
+    if (*end != '\0' || a < 1 || b < 1 || a > RAY_MAX_SIZE || b > RAY_MAX_SIZE)
+        return -1;
+    *w = (int)a;
+    *h = (int)b;
+    return 0;
+}
+
+/* The file name of frame k: F itself for a single frame, else F with _NNN
+ * before its extension (as many digits as the last frame needs, at least 3). */
+static char *frame_path(const char *path, int k, int frames)
+{
+    size_t n = strlen(path);
+    char *out = malloc(n + 24);
+    if (!out)
+        return NULL;
+    if (frames <= 1) {
+        memcpy(out, path, n + 1);
+        return out;
+    }
+    const char *slash = strrchr(path, '/'), *dot = strrchr(path, '.');
+    size_t stem = dot && (!slash || dot > slash + 1) ? (size_t)(dot - path) : n;
+    int digits = 3;
+    for (int m = frames - 1; m >= 1000; m /= 10)
+        digits++;
+    char num[24];
+    int len = snprintf(num, sizeof num, "%d", k);
+    memcpy(out, path, stem);
+    char *q = out + stem;
+    *q++ = '_';
+    for (int z = len; z < digits; z++)
+        *q++ = '0';
+    memcpy(q, num, (size_t)len);
+    memcpy(q + len, path + stem, n - stem + 1);
+    return out;
+}
+
+typedef int (*writer_fn)(FILE *f, const ray_image_t *img, const ray_camera_t *cam,
+                         const char *method, ivoct_error_t *err);
+
+static int png_writer(FILE *f, const ray_image_t *img, const ray_camera_t *cam,
+                      const char *method, ivoct_error_t *err)
+{
+    (void)cam;
+    (void)method;
+    return ray_write_png(f, img, err);
+}
+
+/* Write one output through a temporary file; 0 on success. */
+static int write_output(const char *path, int k, int frames, writer_fn fn,
+                        const ray_image_t *img, const ray_camera_t *cam, const char *method,
+                        ivoct_error_t *err)
+{
+    char *p = frame_path(path, k, frames);
+    if (!p) {
+        ivoct_error_set(err, "out of memory");
+        return -1;
+    }
+    io_file_t f;
+    int rc = io_open(&f, p, err);
+    if (rc == 0) {
+        if (fn(f.f, img, cam, method, err)) {
+            char why[512];
+            snprintf(why, sizeof why, "%s", err->msg);
+            ivoct_error_set(err, "cannot write %s: %s", p, why);
+            io_abort(&f);
+            rc = -1;
+        } else {
+            rc = io_commit(&f, err);
+        }
+    }
+    free(p);
+    return rc;
+}
+
+/* Fail early, before the render, when an output cannot be created. */
+static int probe_output(const char *path, int frames, ivoct_error_t *err)
+{
+    char *p = frame_path(path, 0, frames);
+    if (!p) {
+        ivoct_error_set(err, "out of memory");
+        return -1;
+    }
+    io_file_t f;
+    int rc = io_open(&f, p, err);
+    if (rc == 0)
+        io_abort(&f);
+    free(p);
+    return rc;
+}
+
+static int write_stats(const char *path, const scene_t *s, ray_method_t method, int width,
+                       int height, int frames, const ray_stats_t *st, ivoct_error_t *err)
+{
+    io_file_t f;
+    if (io_open(&f, path, err))
+        return -1;
+    FILE *o = f.f;
+    fputs("{\n  \"scene\": ", o);
+    cli_json_string(o, s->name);
+    fputs(",\n  \"method\": ", o);
+    cli_json_string(o, ray_method_name(method));
+    fprintf(o,
+            ",\n  \"certified\": %s,\n  \"octree\": false,\n  \"width\": %d,\n  \"height\": %d,\n"
+            "  \"frames\": %d,\n  \"rays\": %llu,\n  \"hits\": %llu,\n  \"tangent_hits\": %llu,\n"
+            "  \"time_s\": ",
+            ray_method_certified(method) ? "true" : "false", width, height, frames,
+            (unsigned long long)st->rays, (unsigned long long)st->hits,
+            (unsigned long long)st->tangent_hits);
+    cli_json_double(o, st->time_s);
+    fprintf(o,
+            ",\n  \"tape_evals\": %llu,\n  \"tape_lanes\": %d,\n  \"segments\": %llu,\n"
+            "  \"leaves_visited\": %llu,\n  \"threads\": %d\n}\n",
+            (unsigned long long)st->tape_evals, TAPE_LANES, (unsigned long long)st->segments,
+            (unsigned long long)st->leaves, st->threads);
+    return io_commit(&f, err);
+}
+
+int cmd_render(int argc, char **argv)
+{
+    const char *scene_path = NULL, *png = NULL, *vti = NULL, *stats = NULL, *octree = NULL;
+    const char *method_text = NULL;
+    long threads = 0, frames = 1;
+    int width = 0, height = 0;
+    bool quiet = false, no_octree = false;
+
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
+#define NEED_VALUE()                                                                        \
+    do {                                                                                    \
+        if (!v)                                                                             \
+            return cli_usage_error("render", "%s needs a value", a);                        \
+        i++;                                                                                \
+    } while (0)
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            fputs(HELP, stdout);
+            return EXIT_OK;
+        } else if (!strcmp(a, "--no-octree")) {
+            no_octree = true;
+        } else if (!strcmp(a, "--octree")) {
+            NEED_VALUE();
+            octree = v;
+        } else if (!strcmp(a, "--method")) {
+            NEED_VALUE();
+            method_text = v;
+        } else if (!strcmp(a, "--size")) {
+            NEED_VALUE();
+            if (parse_size(v, &width, &height))
+                return cli_usage_error("render", "--size expects WxH with W and H in 1..%d, got '%s'",
+                                       RAY_MAX_SIZE, v);
+        } else if (!strcmp(a, "--threads")) {
+            NEED_VALUE();
+            if (!cli_parse_int("render", a, v, 1, 1024, &threads))
+                return EXIT_USAGE;
+        } else if (!strcmp(a, "--frames")) {
+            NEED_VALUE();
+            if (!cli_parse_int("render", a, v, 1, 100000, &frames))
+                return EXIT_USAGE;
+        } else if (!strcmp(a, "--png")) {
+            NEED_VALUE();
+            png = v;
+        } else if (!strcmp(a, "--vti")) {
+            NEED_VALUE();
+            vti = v;
+        } else if (!strcmp(a, "--stats")) {
+            NEED_VALUE();
+            stats = v;
+        } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
+            quiet = true;
+        } else if (a[0] == '-' && a[1] != '\0') {
+            return cli_usage_error("render", "unknown option '%s'", a);
+        } else if (!scene_path) {
+            scene_path = a;
+        } else {
+            return cli_usage_error("render", "unexpected argument '%s'", a);
+        }
+#undef NEED_VALUE
+    }
+    if (!scene_path)
+        return cli_usage_error("render", "missing the scene file");
+    if (octree && no_octree)
+        return cli_usage_error("render", "--octree and --no-octree exclude each other");
+    ray_method_t method = RAY_NEWTON_AH;
+    if (method_text && ray_method_parse(method_text, &method))
+        return cli_usage_error("render",
+                               "unknown method '%s'; expected mitchell, newton, newton-ah, "
+                               "mrfro, mrfro-newton, lipschitz or sampling",
+                               method_text);
+    if (octree) {
+        fprintf(stderr, "ivoct render: --octree is not available yet (use --no-octree)\n");
+        return EXIT_USAGE;
+    }
+
+    scene_t s;
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    if (scene_load(scene_path, &s, &err)) {
+        cli_print_error(&err);
+        return EXIT_USAGE;
+    }
+    int rc = EXIT_OK;
+    ray_image_t img = {0};
+    if (!method_text && ray_method_parse(s.method, &method)) {
+        fprintf(stderr, "ivoct render: %s: unknown method '%s'\n", scene_path, s.method);
+        rc = EXIT_USAGE;
+        goto out;
+    }
+    if (width > 0) {
+        s.width = width;
+        s.height = height;
+    }
+    ray_camera_t cam0;
+    if (ray_camera_init(&cam0, s.eye, s.target, s.up, s.fov, s.width, s.height, &err)) {
+        fprintf(stderr, "ivoct render: %s: %s\n", scene_path, err.msg);
+        rc = EXIT_USAGE;
+        goto out;
+    }
+    const char *outputs[3] = {png, vti, stats};
+    for (int k = 0; k < 3; k++)
+        if (outputs[k] && probe_output(outputs[k], k == 2 ? 1 : (int)frames, &err)) {
+            fprintf(stderr, "ivoct render: %s\n", err.msg);
+            rc = EXIT_RUNTIME;
+            goto out;
+        }
+    if (ray_image_alloc(&img, s.width, s.height, &err)) {
+        fprintf(stderr, "ivoct render: %s\n", err.msg);
+        rc = EXIT_RUNTIME;
+        goto out;
+    }
+
+    ray_box_source_t bs;
+    ray_source_t src = ray_box_source(&bs, s.box);
+    ray_render_opts_t ro;
+    ray_render_opts_default(&ro);
+    ro.method = method;
+    ro.threads = (int)threads;
+    {
+        double dx = s.box[1] - s.box[0], dy = s.box[3] - s.box[2], dz = s.box[5] - s.box[4];
+        double diag = sqrt(dx * dx + dy * dy + dz * dz);
+        ro.roots.sample_step = diag > 0 ? diag / 1000 : 0;
+    }
+    progress_t prog = {omp_get_wtime(), 0, 0, (int)frames};
+    if (!quiet && isatty(2)) {
+        ro.progress = show_progress;
+        ro.progress_ctx = &prog;
+    }
+    ray_stats_t total = {0};
+    for (int k = 0; k < frames; k++) {
+        ray_camera_t cam;
+        const double two_pi = 6.283185307179586;
+        if (ray_camera_orbit(&cam0, two_pi * k / (double)frames, &cam, &err)) {
+            fprintf(stderr, "ivoct render: frame %d: %s\n", k, err.msg);
+            rc = EXIT_USAGE;
+            goto out;
+        }
+        prog.frame = k;
+        ray_stats_t st;
+        if (ray_render(s.tape, &cam, &src, &ro, &img, &st, &err)) {
+            fprintf(stderr, "ivoct render: %s\n", err.msg);
+            rc = EXIT_RUNTIME;
+            goto out;
+        }
+        total.rays += st.rays;
+        total.hits += st.hits;
+        total.tangent_hits += st.tangent_hits;
+        total.tape_evals += st.tape_evals;
+        total.segments += st.segments;
+        total.leaves += st.leaves;
+        total.time_s += st.time_s;
+        total.threads = st.threads;
+        if ((png && write_output(png, k, (int)frames, png_writer, &img, &cam, NULL, &err)) ||
+            (vti && write_output(vti, k, (int)frames, ray_write_vti, &img, &cam,
+                                 ray_method_name(method), &err))) {
+            fprintf(stderr, "ivoct render: %s\n", err.msg);
+            rc = EXIT_RUNTIME;
+            goto out;
+        }
+    }
+    if (stats &&
+        write_stats(stats, &s, method, s.width, s.height, (int)frames, &total, &err)) {
+        fprintf(stderr, "ivoct render: %s\n", err.msg);
+        rc = EXIT_RUNTIME;
+        goto out;
+    }
+    if (!quiet)
+        printf("%s: %s, %dx%d%s, no octree: %llu hits of %llu rays (%llu tangent), %.3f s, %d "
+               "thread%s\n",
+               s.name, ray_method_name(method), s.width, s.height,
+               frames > 1 ? " per frame" : "", (unsigned long long)total.hits,
+               (unsigned long long)total.rays, (unsigned long long)total.tangent_hits,
+               total.time_s, total.threads, total.threads > 1 ? "s" : "");
+out:
+    ray_image_free(&img);
+    scene_free(&s);
+    return rc;
+}

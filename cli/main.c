@@ -1,0 +1,122 @@
+/* ivoct — the command line: dispatch to subcommands. */
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+
+static const char USAGE[] =
+    "usage: ivoct COMMAND [options]\n"
+    "\n"
+    "Certified interval-octree subdivision of implicit surfaces f(x,y,z) = 0.\n"
+    "\n"
+    "commands:\n"
+    "  eval    enclose f (and its gradient) over a box:\n"
+    "          ivoct eval (SCENE | -e EXPR) [--box X0 X1 Y0 Y1 Z0 Z1] [--grad] [--json]\n"
+    "  build   the octree of surface cells of a scene:\n"
+    "          ivoct build SCENE [--depth N] [--tests LIST] [--threads N] [--max-memory SIZE]\n"
+    "                      [--cells F.csv] [--save F.ivo] [--stats F.json] [--quiet]\n"
+    "  info    summarise an octree file: ivoct info F.ivo\n"
+    "  render  ray cast a scene into a PNG and/or the .vti render buffers:\n"
+    "          ivoct render SCENE [--no-octree] [--method M] [--size WxH] [--threads N]\n"
+    "                       [--png F] [--vti F] [--frames N] [--stats F.json] [--quiet]\n"
+    "\n"
+    "Run 'ivoct COMMAND --help' for the options of a command.\n"
+    "Exit codes: 0 ok, 1 runtime failure, 2 usage or input error.\n";
+
+int cli_usage_error(const char *cmd, const char *fmt, ...)
+{
+    va_list ap;
+    fprintf(stderr, "ivoct %s: ", cmd);
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fprintf(stderr, " (see 'ivoct %s --help')\n", cmd);
+    return EXIT_USAGE;
+}
+
+void cli_print_error(const ivoct_error_t *err)
+{
+    char buf[1024];
+    fprintf(stderr, "ivoct: %s\n", ivoct_error_format(err, buf, sizeof buf));
+}
+
+bool cli_parse_double(const char *cmd, const char *opt, const char *text, double *out)
+{
+    char *end;
+    double v = strtod(text, &end);
+    if (end == text || *end != '\0' || !isfinite(v)) {
+        cli_usage_error(cmd, "%s expects a finite number, got '%s'", opt, text);
+        return false;
+    }
+    *out = v;
+    return true;
+}
+
+bool cli_parse_int(const char *cmd, const char *opt, const char *text, long lo, long hi,
+                   long *out)
+{
+    char *end;
+    long v = strtol(text, &end, 10);
+    if (end == text || *end != '\0' || v < lo || v > hi) {
+        cli_usage_error(cmd, "%s expects an integer from %ld to %ld, got '%s'", opt, lo, hi,
+                        text);
+        return false;
+    }
+    *out = v;
+    return true;
+}
+
+void cli_json_double(FILE *f, double x)
+{
+    if (x != x)
+        fputs("null", f);
+    else if (isinf(x))
+        fputs(x > 0 ? "1e999" : "-1e999", f);
+    else
+        fprintf(f, "%.17g", x);
+}
+
+void cli_json_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; s && *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\')
+            fprintf(f, "\\%c", c);
+        else if (c < 0x20)
+            fprintf(f, "\\u%04x", c);
+        else
+            fputc(c, f);
+    }
+    fputc('"', f);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        fputs(USAGE, stderr);
+        return EXIT_USAGE;
+    }
+    const char *cmd = argv[1];
+    if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "help")) {
+        fputs(USAGE, stdout);
+        return EXIT_OK;
+    }
+    if (!strcmp(cmd, "--version")) {
+        printf("ivoct %s\n", IVOCT_VERSION);
+        return EXIT_OK;
+    }
+    if (!strcmp(cmd, "eval"))
+        return cmd_eval(argc - 1, argv + 1);
+    if (!strcmp(cmd, "build"))
+        return cmd_build(argc - 1, argv + 1);
+    if (!strcmp(cmd, "info"))
+        return cmd_info(argc - 1, argv + 1);
+    if (!strcmp(cmd, "render"))
+        return cmd_render(argc - 1, argv + 1);
+    fprintf(stderr, "ivoct: unknown command '%s'\n%s", cmd, USAGE);
+    return EXIT_USAGE;
+}

@@ -1,0 +1,156 @@
+/* ivoct — expressions compiled to tapes, and the evaluators over a tape (prefix tape_).
+ *
+ * An expression (grammar in docs/scene-format.md) is parsed into a DAG with
+ * common-subexpression elimination and constant folding, then flattened into a
+ * tape: an array of SSA clauses, clause i writing slot i, each reading only
+ * slots before it.  The value of the expression is the last clause.
+ *
+ * Constants are intervals: a decimal literal that is not a double (0.1) and
+ * the constants pi and e are enclosed, so folding and evaluation stay rigorous.
+ */
+#ifndef IVOCT_TAPE_H
+#define IVOCT_TAPE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "error.h"
+#include "interval.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum tape_op {
+    /* leaves */
+    TAPE_CONST, /* c */
+    TAPE_X,
+    TAPE_Y,
+    TAPE_Z,
+    /* unary: slot a */
+    TAPE_NEG,
+    TAPE_SQR,
+    TAPE_POWI, /* a ^ n, n = (int)c.lo, |n| >= 3 or n = -1, -2 */
+    TAPE_POWR, /* a ^ r, r = c.lo a double that is not an integer */
+    TAPE_SQRT,
+    TAPE_EXP,
+    TAPE_LOG,
+    TAPE_SIN,
+    TAPE_COS,
+    TAPE_TAN,
+    TAPE_ATAN,
+    TAPE_ABS,
+    /* binary: slots a, b */
+    TAPE_ADD,
+    TAPE_SUB,
+    TAPE_MUL,
+    TAPE_DIV,
+    TAPE_MIN,
+    TAPE_MAX,
+    TAPE_OP_COUNT
+} tape_op_t;
+
+typedef struct tape_clause {
+    uint32_t op; /* tape_op_t */
+    uint32_t a, b;
+    iv_t c;      /* TAPE_CONST: the value; TAPE_POWI / TAPE_POWR: the exponent in c.lo */
+} tape_clause_t;
+
+typedef struct tape {
+    tape_clause_t *clauses;
+    uint32_t n; /* number of clauses, >= 1; the result is clause n-1 */
+} tape_t;
+
+/* Name of an op ("add", "sqr", ...), for dumps and stats. */
+const char *tape_op_name(tape_op_t op);
+
+/* ---- compiling ----------------------------------------------------------------
+ * A compiler holds the named subexpressions (let.NAME) defined so far.
+ * Errors name line and column inside the text given (1-based; text may hold
+ * newlines); the scene loader maps them to file positions.  Limits, reported as
+ * errors rather than crashes: nesting deeper than TAPE_MAX_NESTING, texts
+ * longer than TAPE_MAX_TEXT bytes. */
+#define TAPE_MAX_NESTING 1000
+#define TAPE_MAX_TEXT (1u << 20)
+
+typedef struct tape_compiler tape_compiler_t;
+
+tape_compiler_t *tape_compiler_new(void); /* NULL when out of memory */
+void tape_compiler_free(tape_compiler_t *tc);
+
+/* Define NAME as the expression text; later texts may use NAME.  Names follow
+ * [A-Za-z_][A-Za-z0-9_]* and may not shadow x y z pi e or a function.  An
+ * error about NAME itself (syntax, reserved, already defined) has line 0: it
+ * has no position in text.  A message may quote a second position, always
+ * as "opened at LINE:COL" in text positions (the scene loader maps it too). */
+int tape_compiler_define(tape_compiler_t *tc, const char *name, const char *text,
+                         ivoct_error_t *err);
+
+/* Compile text (which may use the names defined so far) into a new tape. */
+int tape_compiler_compile(tape_compiler_t *tc, const char *text, tape_t **out,
+                          ivoct_error_t *err);
+
+/* Shorthand: compile a text that uses no names. */
+int tape_compile(const char *text, tape_t **out, ivoct_error_t *err);
+
+void tape_free(tape_t *t);
+tape_t *tape_clone(const tape_t *t);
+
+/* ---- evaluating ---------------------------------------------------------------
+ * Each evaluator takes n points or boxes and runs one pass over the tape with
+ * the lanes innermost, so the compiler vectorises the per-clause loops.  A
+ * workspace holds the slots; one per thread, sized for tapes of at most
+ * max_clauses clauses and any n (larger n is processed in chunks of TAPE_LANES). */
+#define TAPE_LANES 8
+
+typedef struct tape_ws tape_ws_t;
+
+tape_ws_t *tape_ws_new(uint32_t max_clauses); /* NULL when out of memory */
+void tape_ws_free(tape_ws_t *ws);
+
+/* Plain double evaluation (not rigorous: for sampling and baselines). */
+void tape_eval_point(const tape_t *t, tape_ws_t *ws, size_t n, const double *x,
+                     const double *y, const double *z, double *out);
+
+/* Rigorous enclosure of f over each box. */
+void tape_eval_interval(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *box,
+                        iv_t *out);
+
+/* Rigorous enclosure of f and of its gradient over each box. */
+void tape_eval_grad(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *box,
+                    iv_grad_t *out);
+
+/* After tape_eval_interval, the interval of clause i in lane `lane` of the
+ * last chunk evaluated (lane < TAPE_LANES).  Used to prune min/max per cell. */
+iv_t tape_ws_slot(const tape_ws_t *ws, uint32_t i, unsigned lane);
+
+/* ---- pruning per region --------------------------------------------------------
+ * Over a region where the branch of a choice is known, the choice can go:
+ * min(a, b) with a <= b over the region becomes a, max likewise, abs(a) with a
+ * of known sign becomes a or -a; clauses no longer needed are dropped.  The
+ * pruned tape equals f at every point of the region where f is defined. */
+
+/* Does the tape hold any min, max or abs (anything tape_prune could remove)? */
+int tape_has_choices(const tape_t *t);
+
+/* Is every clause that depends on x, y or z used at most once?  Then the tape is
+ * a single-use expression: its interval evaluation is the exact range of f
+ * over a box (up to the outward rounding), since no variable can take two
+ * values at once.  No other range test (Lipschitz, affine) can then decide a
+ * box the interval test leaves open, so the octree skips them.  scratch: 2 *
+ * t->n words. */
+int tape_is_single_use(const tape_t *t, uint32_t *scratch);
+
+/* Number of operands of an op (0, 1 or 2). */
+int tape_op_arity(tape_op_t op);
+
+/* Prune t for the box of lane `lane` of the last tape_eval_interval on ws (whose
+ * slot intervals decide the choices) into out, whose clauses array must hold
+ * t->n clauses.  scratch: 3 * t->n words.  No allocation. */
+void tape_prune(const tape_t *t, const tape_ws_t *ws, unsigned lane, uint32_t *scratch,
+                tape_t *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,61 @@
+/* ivoct — cell addressing: bounds, Morton codes. */
+#include "octree.h"
+
+/* 2^-d, exact: scaling by it is exact, so i * 2^-d is the fraction itself */
+static const double POW2NEG[OCT_MAX_DEPTH + 1] = {
+    0x1p-0,  0x1p-1,  0x1p-2,  0x1p-3,  0x1p-4,  0x1p-5,  0x1p-6,  0x1p-7,
+    0x1p-8,  0x1p-9,  0x1p-10, 0x1p-11, 0x1p-12, 0x1p-13, 0x1p-14, 0x1p-15,
+    0x1p-16, 0x1p-17, 0x1p-18, 0x1p-19, 0x1p-20, 0x1p-21,
+};
+
+double oct_coord(double lo, double hi, uint64_t i, int depth)
+{
+    uint64_t n = (uint64_t)1 << depth;
+    if (i == 0)
+        return lo;
+    if (i >= n)
+        return hi;
+    /* i / 2^depth is exact, so the same fraction at another depth gives the
+     * same double; each step is monotone in i, so neighbours never overlap */
+    double v = lo + (hi - lo) * ((double)i * POW2NEG[depth]);
+    return v < hi ? v : hi;
+}
+
+iv_box_t oct_cell_box(const double box[6], int depth, uint32_t ix, uint32_t iy, uint32_t iz)
+{
+    iv_box_t b = {
+        {oct_coord(box[0], box[1], ix, depth), oct_coord(box[0], box[1], (uint64_t)ix + 1, depth)},
+        {oct_coord(box[2], box[3], iy, depth), oct_coord(box[2], box[3], (uint64_t)iy + 1, depth)},
+        {oct_coord(box[4], box[5], iz, depth), oct_coord(box[4], box[5], (uint64_t)iz + 1, depth)},
+    };
+    return b;
+}
+
+uint64_t oct_morton(uint32_t ix, uint32_t iy, uint32_t iz, int depth)
+{
+    uint64_t code = 0;
+    for (int level = depth - 1; level >= 0; level--) {
+        unsigned child = ((ix >> level) & 1u) | ((iy >> level) & 1u) << 1 | ((iz >> level) & 1u) << 2;
+        code = code << 3 | child;
+    }
+    return code;
+}
+
+void oct_unmorton(uint64_t code, int depth, uint32_t *ix, uint32_t *iy, uint32_t *iz)
+{
+    uint32_t x = 0, y = 0, z = 0;
+    for (int level = depth - 1; level >= 0; level--) {
+        unsigned child = (unsigned)(code >> (3 * level)) & 7u;
+        x = x << 1 | (child & 1u);
+        y = y << 1 | (child >> 1 & 1u);
+        z = z << 1 | (child >> 2 & 1u);
+    }
+    *ix = x, *iy = y, *iz = z;
+}
+
+iv_box_t oct_leaf_box(const oct_tree_t *tree, const oct_leaf_t *leaf)
+{
+    uint32_t ix, iy, iz;
+    oct_unmorton(leaf->code, leaf->depth, &ix, &iy, &iz);
+    return oct_cell_box(tree->box, leaf->depth, ix, iy, iz);
+}

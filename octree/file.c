@@ -1,0 +1,414 @@
+/* ivoct — the native octree file (.ivo).
+ *
+ * Layout, all integers little-endian, doubles as their IEEE bits:
+ *   "IVOCTREE"  u32 version (1)
+ *   u32 depth  u32 tests  f64 box[6]
+ *   str name  u32 n_lets  (str let_name  str let_text) * n_lets  str f
+ *   u32 n_nodes  u32 n_leaves
+ *   u32 node * n_nodes
+ *   (u64 code  f64 f_lo  f64 f_hi  u8 depth) * n_leaves
+ *   u64 checksum: FNV-1a of every byte before it
+ * where str = u32 length + bytes.  The reader checks every length against the
+ * file size before using it, the checksum, and the tree's structure, so a
+ * truncated or corrupt file is an error and never a crash. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../io/io.h"
+#include "octree.h"
+
+#define MAGIC "IVOCTREE"
+#define VERSION 1u
+#define MAX_FILE ((size_t)1 << 36)
+
+static uint64_t fnv1a(const unsigned char *p, size_t n)
+{
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ p[i]) * 0x100000001b3ull;
+    return h;
+}
+
+/* ---- writing into a growing buffer ---------------------------------------------- */
+
+typedef struct buf {
+    unsigned char *p;
+    size_t n, cap;
+    int oom;
+} buf_t;
+
+static void put(buf_t *b, const void *src, size_t n)
+{
+    if (b->oom)
+        return;
+    if (b->n + n > b->cap) {
+        size_t cap = b->cap ? b->cap : 4096;
+        while (cap < b->n + n)
+            cap *= 2;
+        unsigned char *q = realloc(b->p, cap);
+        if (!q) {
+            b->oom = 1;
+            return;
+        }
+        b->p = q, b->cap = cap;
+    }
+    memcpy(b->p + b->n, src, n);
+    b->n += n;
+}
+
+static void put_u64(buf_t *b, uint64_t v)
+{
+    unsigned char c[8];
+    for (int i = 0; i < 8; i++)
+        c[i] = (unsigned char)(v >> (8 * i));
+    put(b, c, 8);
+}
+
+static void put_u32(buf_t *b, uint32_t v)
+{
+    unsigned char c[4];
+    for (int i = 0; i < 4; i++)
+        c[i] = (unsigned char)(v >> (8 * i));
+    put(b, c, 4);
+}
+
+static void put_f64(buf_t *b, double x)
+{
+    uint64_t v;
+    memcpy(&v, &x, 8);
+    put_u64(b, v);
+}
+
+static void put_str(buf_t *b, const char *s)
+{
+    size_t n = s ? strlen(s) : 0;
+    put_u32(b, (uint32_t)n);
+    put(b, s ? s : "", n);
+}
+
+int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
+             ivoct_error_t *err)
+{
+    buf_t b = {0};
+    put(&b, MAGIC, 8);
+    put_u32(&b, VERSION);
+    put_u32(&b, (uint32_t)tree->depth);
+    put_u32(&b, tree->tests);
+    for (int k = 0; k < 6; k++)
+        put_f64(&b, tree->box[k]);
+    put_str(&b, src ? src->name : "");
+    put_u32(&b, src ? (uint32_t)src->n_lets : 0);
+    for (size_t i = 0; src && i < src->n_lets; i++) {
+        put_str(&b, src->let_names[i]);
+        put_str(&b, src->let_texts[i]);
+    }
+    put_str(&b, src ? src->f : "");
+    put_u32(&b, tree->n_nodes);
+    put_u32(&b, tree->n_leaves);
+    for (uint32_t i = 0; i < tree->n_nodes; i++)
+        put_u32(&b, tree->nodes[i]);
+    for (uint32_t i = 0; i < tree->n_leaves; i++) {
+        const oct_leaf_t *l = &tree->leaves[i];
+        put_u64(&b, l->code);
+        put_f64(&b, l->f_lo);
+        put_f64(&b, l->f_hi);
+        put(&b, &l->depth, 1);
+    }
+    if (!b.oom)
+        put_u64(&b, fnv1a(b.p, b.n));
+    if (b.oom) {
+        free(b.p);
+        ivoct_error_set(err, "cannot write %s: out of memory", path);
+        return -1;
+    }
+    io_file_t f;
+    int rc = io_open(&f, path, err);
+    if (rc == 0) {
+        fwrite(b.p, 1, b.n, f.f);
+        rc = io_commit(&f, err);
+    }
+    free(b.p);
+    return rc;
+}
+
+/* ---- reading with bounds checks ---------------------------------------------------- */
+
+typedef struct reader {
+    const unsigned char *p;
+    size_t n, at;
+    int bad;
+} reader_t;
+
+static const unsigned char *take(reader_t *r, size_t n)
+{
+    if (r->bad || n > r->n - r->at) {
+        r->bad = 1;
+        return NULL;
+    }
+    const unsigned char *q = r->p + r->at;
+    r->at += n;
+    return q;
+}
+
+static uint64_t get_u64(reader_t *r)
+{
+    const unsigned char *c = take(r, 8);
+    uint64_t v = 0;
+    for (int i = 7; c && i >= 0; i--)
+        v = v << 8 | c[i];
+    return v;
+}
+
+static uint32_t get_u32(reader_t *r)
+{
+    const unsigned char *c = take(r, 4);
+    uint32_t v = 0;
+    for (int i = 3; c && i >= 0; i--)
+        v = v << 8 | c[i];
+    return v;
+}
+
+static double get_f64(reader_t *r)
+{
+    uint64_t v = get_u64(r);
+    double x;
+    memcpy(&x, &v, 8);
+    return x;
+}
+
+static char *get_str(reader_t *r)
+{
+    uint32_t n = get_u32(r);
+    const unsigned char *c = take(r, n);
+    if (!c)
+        return NULL;
+    char *s = malloc((size_t)n + 1);
+    if (!s) {
+        r->bad = 1;
+        return NULL;
+    }
+    memcpy(s, c, n);
+    s[n] = '\0';
+    return s;
+}
+
+void oct_source_free(oct_source_t *src)
+{
+    if (!src)
+        return;
+    free(src->name);
+    for (size_t i = 0; i < src->n_lets; i++) {
+        if (src->let_names)
+            free(src->let_names[i]);
+        if (src->let_texts)
+            free(src->let_texts[i]);
+    }
+    free(src->let_names);
+    free(src->let_texts);
+    free(src->f);
+    memset(src, 0, sizeof *src);
+}
+
+/* The structure a builder makes: the root at 0, then blocks of 8 children at
+ * 1, 9, 17, ..., each block the children of exactly one interior node that
+ * comes before it, every block reached, every leaf reached once at the place
+ * its Morton code names.  (A block shared by several parents would make the
+ * walk exponential; an unreached one would be garbage.)  Returns a reason or
+ * NULL. */
+static const char *check_structure(const oct_tree_t *t)
+{
+    if (t->n_nodes == 0 || (t->n_nodes - 1) % 8 != 0)
+        return "bad node count";
+    uint32_t nblocks = (t->n_nodes - 1) / 8;
+    unsigned char *seen = calloc(nblocks ? nblocks : 1, 1);
+    if (!seen)
+        return "out of memory";
+    struct {
+        uint32_t node;
+        uint64_t code;
+        int depth;
+    } stack[8 * (OCT_MAX_DEPTH + 2)];
+    int sp = 0;
+    uint32_t next_leaf = 0, interior = 0;
+    const char *why = NULL;
+    stack[sp].node = 0, stack[sp].code = 0, stack[sp].depth = 0, sp++;
+    while (sp > 0 && !why) {
+        sp--;
+        uint32_t i = stack[sp].node;
+        uint64_t code = stack[sp].code;
+        int depth = stack[sp].depth;
+        oct_node_t v = t->nodes[i];
+        uint32_t val = OCT_NODE_VALUE(v);
+        switch (OCT_NODE_KIND(v)) {
+        case OCT_INTERIOR:
+            if (depth >= t->depth || val <= i || val > t->n_nodes - 8 || (val - 1) % 8 != 0 ||
+                seen[(val - 1) / 8]) {
+                why = "bad child index";
+                break;
+            }
+            seen[(val - 1) / 8] = 1;
+            interior++;
+            for (int k = 7; k >= 0; k--) {
+                stack[sp].node = val + (uint32_t)k;
+                stack[sp].code = code << 3 | (uint64_t)k;
+                stack[sp].depth = depth + 1;
+                sp++;
+            }
+            break;
+        case OCT_LEAF:
+            if (val != next_leaf || val >= t->n_leaves)
+                why = "leaves out of order";
+            else if (t->leaves[val].depth != depth || t->leaves[val].code != code)
+                why = "leaf code does not match its place";
+            next_leaf++;
+            break;
+        case OCT_EMPTY:
+            if (val > OCT_UNDEFINED)
+                why = "bad cell class";
+            break;
+        default:
+            why = "bad node kind";
+        }
+    }
+    free(seen);
+    if (!why && interior != nblocks)
+        why = "nodes not reached from the root";
+    if (!why && next_leaf != t->n_leaves)
+        why = "leaves not reached from the root";
+    return why;
+}
+
+int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_t *err)
+{
+    *out = NULL;
+    if (src)
+        memset(src, 0, sizeof *src);
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        ivoct_error_set(err, "cannot open %s", path);
+        return -1;
+    }
+    unsigned char *data = NULL;
+    size_t n = 0, cap = 0;
+    for (;;) {
+        if (n == cap) {
+            cap = cap ? 2 * cap : 1 << 16;
+            unsigned char *q = cap <= MAX_FILE ? realloc(data, cap) : NULL;
+            if (!q) {
+                free(data);
+                fclose(f);
+                ivoct_error_set(err, "%s: too large or out of memory", path);
+                return -1;
+            }
+            data = q;
+        }
+        size_t got = fread(data + n, 1, cap - n, f);
+        n += got;
+        if (got == 0)
+            break;
+    }
+    int rd_err = ferror(f);
+    fclose(f);
+    if (rd_err) {
+        free(data);
+        ivoct_error_set(err, "cannot read %s", path);
+        return -1;
+    }
+
+    const char *why = NULL;
+    reader_t r = {data, n, 0, 0};
+    oct_tree_t *t = calloc(1, sizeof *t);
+    oct_source_t s = {0};
+    const unsigned char *magic = take(&r, 8);
+    if (!t) {
+        why = "out of memory";
+        goto fail;
+    }
+    if (!magic || memcmp(magic, MAGIC, 8) != 0) {
+        why = "not an ivoct octree file (bad magic)";
+        goto fail;
+    }
+    if (n < 8 + 8 || fnv1a(data, n - 8) != (r.at = n - 8, get_u64(&r))) {
+        why = "checksum mismatch (truncated or corrupt file)";
+        goto fail;
+    }
+    r.n = n - 8; /* the checksum is not payload */
+    r.at = 8;
+    uint32_t version = get_u32(&r);
+    if (version != VERSION) {
+        why = "unsupported version";
+        goto fail;
+    }
+    t->depth = (int)get_u32(&r);
+    t->tests = get_u32(&r);
+    for (int k = 0; k < 6; k++)
+        t->box[k] = get_f64(&r);
+    s.name = get_str(&r);
+    uint32_t nl = get_u32(&r);
+    if (r.bad || nl > (r.n - r.at) / 8) {
+        why = "truncated scene";
+        goto fail;
+    }
+    s.let_names = calloc(nl ? nl : 1, sizeof *s.let_names);
+    s.let_texts = calloc(nl ? nl : 1, sizeof *s.let_texts);
+    if (!s.let_names || !s.let_texts) {
+        why = "out of memory";
+        goto fail;
+    }
+    s.n_lets = nl;
+    for (uint32_t i = 0; i < nl && !r.bad; i++) {
+        s.let_names[i] = get_str(&r);
+        s.let_texts[i] = get_str(&r);
+    }
+    s.f = get_str(&r);
+    t->n_nodes = get_u32(&r);
+    t->n_leaves = get_u32(&r);
+    if (r.bad || t->depth < 0 || t->depth > OCT_MAX_DEPTH ||
+        (uint64_t)t->n_nodes * 4 + (uint64_t)t->n_leaves * 25 != r.n - r.at) {
+        why = "bad header or truncated tree";
+        goto fail;
+    }
+    t->nodes = malloc(((size_t)t->n_nodes + 1) * sizeof *t->nodes);
+    t->leaves = calloc((size_t)t->n_leaves + 1, sizeof *t->leaves);
+    if (!t->nodes || !t->leaves) {
+        why = "out of memory";
+        goto fail;
+    }
+    for (uint32_t i = 0; i < t->n_nodes; i++)
+        t->nodes[i] = get_u32(&r);
+    for (uint32_t i = 0; i < t->n_leaves; i++) {
+        oct_leaf_t *l = &t->leaves[i];
+        l->code = get_u64(&r);
+        l->f_lo = get_f64(&r);
+        l->f_hi = get_f64(&r);
+        const unsigned char *d = take(&r, 1);
+        l->depth = d ? *d : 0;
+    }
+    if (r.bad) {
+        why = "truncated tree";
+        goto fail;
+    }
+    if ((why = check_structure(t)) != NULL)
+        goto fail;
+    for (int k = 0; k < 3; k++)
+        if (!(t->box[2 * k] <= t->box[2 * k + 1]) || !isfinite(t->box[2 * k]) ||
+            !isfinite(t->box[2 * k + 1])) {
+            why = "bad box";
+            goto fail;
+        }
+    free(data);
+    *out = t;
+    if (src)
+        *src = s;
+    else
+        oct_source_free(&s);
+    return 0;
+fail:
+    free(data);
+    oct_free(t);
+    oct_source_free(&s);
+    ivoct_error_set(err, "%s: %s", path, why);
+    return -1;
+}

@@ -1,0 +1,143 @@
+/* ivoct — the octree of surface cells (prefix oct_).
+ *
+ * oct_build subdivides a box recursively.  Each cell goes through a chain of
+ * certified tests, cheapest first, and stops at the first that decides it holds
+ * no surface:
+ *   interval   0 not in F(cell)                    -> empty (inside / outside)
+ *   lipschitz  |f(c)| > L r, L >= sup |grad f|      -> empty (Kalra-Barr)
+ * otherwise the cell is split into 8 down to the max depth, where it is a
+ * surface leaf.  Guarantee: every point of the box where f = 0 lies in a
+ * surface leaf (cells are closed boxes).  A surface leaf may hold no surface.
+ *
+ * Storage: a pool of nodes, each a 32-bit word; nodes[0] is the root, and the
+ * 8 children of a cell are contiguous.  Surface leaves are kept apart, in Morton order, with their
+ * payload.  Cells are addressed by (depth, ix, iy, iz) with 0 <= i < 2^depth;
+ * their bounds come from oct_coord so that neighbours share bounds exactly.
+ */
+#ifndef IVOCT_OCTREE_H
+#define IVOCT_OCTREE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "../expr/error.h"
+#include "../expr/tape.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define OCT_MAX_DEPTH 21 /* 3 * 21 = 63 bits of Morton code */
+
+/* The tests of the chain (same bits as scene.h's SCENE_TEST_*). */
+enum {
+    OCT_TEST_INTERVAL = 1u << 0,
+    OCT_TEST_LIPSCHITZ = 1u << 1,
+    OCT_TEST_ILIE = 1u << 2,
+};
+
+/* A node word: the top 2 bits say what it is, the low 30 an index or a class. */
+typedef uint32_t oct_node_t;
+enum {
+    OCT_INTERIOR = 0u, /* low bits: index of the first of its 8 children in nodes[] */
+    OCT_LEAF = 1u,     /* low bits: index in leaves[] */
+    OCT_EMPTY = 2u,    /* low bits: an oct_class_t */
+};
+typedef enum { OCT_INSIDE = 0, OCT_OUTSIDE = 1, OCT_UNDEFINED = 2 } oct_class_t;
+
+#define OCT_NODE_KIND(n) ((n) >> 30)
+#define OCT_NODE_VALUE(n) ((n) & 0x3fffffffu)
+#define OCT_NODE(kind, value) (((uint32_t)(kind) << 30) | (uint32_t)(value))
+
+/* A surface leaf: 32 bytes. */
+typedef struct oct_leaf {
+    uint64_t code;      /* Morton code at the leaf's depth: bits (z y x) per level, root first */
+    double f_lo, f_hi;  /* enclosure of f over the leaf */
+    uint8_t depth;
+    uint8_t pad[7];
+} oct_leaf_t;
+
+typedef struct oct_params {
+    int depth;          /* max depth, 0..OCT_MAX_DEPTH */
+    unsigned tests;     /* OCT_TEST_* */
+    int threads;        /* <= 0: all cores */
+    size_t max_memory;  /* bytes; 0 = no limit */
+    /* Called now and then with the fraction done, from one thread at a time. */
+    void (*progress)(void *user, double fraction);
+    void *progress_user;
+} oct_params_t;
+
+typedef struct oct_stats {
+    uint64_t cells_visited;   /* cells that went through the chain */
+    uint64_t split;           /* cells split into 8 */
+    /* cells decided (sum = cells_visited - split) */
+    uint64_t decided_interval, decided_lipschitz, decided_ilie, decided_refine;
+    uint64_t decided_max_depth; /* undecided at the max depth: surface leaves */
+    uint64_t leaves_by_depth[OCT_MAX_DEPTH + 1];
+    uint64_t cells_by_depth[OCT_MAX_DEPTH + 1];
+    /* tape pruning: sum over split cells at each depth of the length of the
+     * tape their children are evaluated with */
+    uint64_t tape_length_sum_by_depth[OCT_MAX_DEPTH + 1];
+    uint64_t split_by_depth[OCT_MAX_DEPTH + 1];
+    uint64_t tape_clauses_evaluated; /* clauses x cells, over every evaluation */
+    double max_error_bound;          /* largest certified error bound of a leaf */
+    double time_s;
+    size_t peak_bytes;               /* octree storage and build scratch */
+    int threads;
+} oct_stats_t;
+
+typedef struct oct_tree {
+    double box[6];
+    int depth;
+    unsigned tests;
+    oct_node_t *nodes;  /* nodes[0] is the root; children blocks follow */
+    uint32_t n_nodes;
+    oct_leaf_t *leaves;
+    uint32_t n_leaves;
+    oct_stats_t stats;
+} oct_tree_t;
+
+/* Build the octree of f = 0 (tape t) in box.  Returns 0 and a new tree, or
+ * non-zero with err set (memory budget exceeded, out of memory, bad params). */
+int oct_build(const tape_t *t, const double box[6], const oct_params_t *params,
+              oct_tree_t **out, ivoct_error_t *err);
+
+void oct_free(oct_tree_t *tree);
+
+/* Bound number i of 2^depth equal parts of [lo, hi]: oct_coord(lo, hi, 0, d) = lo,
+ * oct_coord(lo, hi, 2^d, d) = hi, monotone in i, and the same double for the
+ * same fraction i / 2^d at any depth. */
+double oct_coord(double lo, double hi, uint64_t i, int depth);
+
+/* The box of the cell (depth, ix, iy, iz) of the tree's box. */
+iv_box_t oct_cell_box(const double box[6], int depth, uint32_t ix, uint32_t iy, uint32_t iz);
+
+/* Morton code <-> cell coordinates at a depth. */
+uint64_t oct_morton(uint32_t ix, uint32_t iy, uint32_t iz, int depth);
+void oct_unmorton(uint64_t code, int depth, uint32_t *ix, uint32_t *iy, uint32_t *iz);
+
+/* The box of a leaf. */
+iv_box_t oct_leaf_box(const oct_tree_t *tree, const oct_leaf_t *leaf);
+
+/* ---- native file (.ivo) -----------------------------------------------------
+ * The scene the tree was built from travels with it so it can be rebuilt or
+ * rendered: its name, its named subexpressions and f, as texts. */
+typedef struct oct_source {
+    char *name;
+    size_t n_lets;
+    char **let_names, **let_texts;
+    char *f;
+} oct_source_t;
+
+/* Write atomically (temporary file renamed on success). */
+int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
+             ivoct_error_t *err);
+/* Read and validate (magic, version, sizes, checksum, structure); a truncated
+ * or corrupt file is an error, never a crash.  src may be NULL. */
+int oct_load(const char *path, oct_tree_t **tree, oct_source_t *src, ivoct_error_t *err);
+void oct_source_free(oct_source_t *src);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,240 @@
+/* ivoct — ray casting of implicit surfaces (prefix ray_).
+ *
+ * A pinhole camera shoots one primary ray per pixel (through the pixel
+ * centre).  Each ray asks an interval source (ray_source_t) for the parameter
+ * segments [t_in, t_out] that may hold surface, front to back, and runs a root
+ * finder on g(t) = f(o + t·d) over each until the first one reports a hit.
+ * Without an octree the source yields one segment: the ray clipped to the
+ * scene box (ray_box_source).  The hits are shaded (Lambert + ambient from the
+ * normal ∇f/|∇f|) into an RGB image; the per-pixel buffers of DESIGN.md §4
+ * (t, hit, point, normal, dir) can be written as a VTK .vti, the image as PNG.
+ *
+ * Points along a ray.  The point evaluated at parameter t is the rounded
+ * ray_point(o, d, t) = fl(o + fl(t·d)) per axis: the certified sign of g at t
+ * is the sign of the interval enclosure of f at that exact point, and the hit
+ * position reported is that point.  Exclusion tests (0 ∉ G(T)) are done on a
+ * box that holds both the exact segment o + T·d and every rounded point of T,
+ * so "no root" is certified for both; a reported root is certified to the
+ * resolution of the rounded points (a few ulps).  See ray/README.md.
+ *
+ * Library code never prints, exits or aborts; functions that can fail return 0
+ * on success and non-zero with a message in an ivoct_error_t.
+ */
+#ifndef IVOCT_RAY_H
+#define IVOCT_RAY_H
+
+#include <stdint.h>
+#include <stdio.h>
+
+#include "../expr/error.h"
+#include "../expr/tape.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- methods ------------------------------------------------------------------ */
+
+typedef enum ray_method {
+    RAY_MITCHELL,     /* "mitchell": interval bisection, monotonicity test on G'(T) */
+    RAY_NEWTON,       /* "newton": interval Newton where 0 ∉ G'(T), bisection elsewhere */
+    RAY_NEWTON_AH,    /* "newton-ah": interval Newton with Alefeld–Hansen extended division */
+    RAY_MRFRO,        /* "mrfro": bisection with endpoint sign rules, no derivatives */
+    RAY_MRFRO_NEWTON, /* "mrfro-newton": MRFro's rules, Newton steps where 0 ∉ G'(T) */
+    RAY_LIPSCHITZ,    /* "lipschitz": Kalra–Barr G test |g(tm)| > G·h on ray segments */
+    RAY_SAMPLING,     /* "sampling": fixed-step point sampling + bisection (NOT certified) */
+    RAY_METHOD_COUNT
+} ray_method_t;
+
+/* The method's name as above; NULL for an invalid value. */
+const char *ray_method_name(ray_method_t m);
+
+/* Parse a method name (exactly one of the names above).  0 on success. */
+int ray_method_parse(const char *name, ray_method_t *m);
+
+/* Whether the method certifies its answers (all but sampling). */
+int ray_method_certified(ray_method_t m);
+
+/* ---- camera -------------------------------------------------------------------- */
+
+#define RAY_MAX_SIZE 65536 /* largest width or height */
+
+typedef struct ray_camera {
+    double eye[3], target[3], up[3]; /* as given */
+    double fov;                      /* vertical field of view, degrees, in (0, 180) */
+    int width, height;               /* pixels */
+    /* derived: an orthonormal frame and the half-height of the image plane at
+     * distance 1 */
+    double fwd[3], right[3], vup[3];
+    double tan_half;
+} ray_camera_t;
+
+/* Set up a camera.  Errors: eye = target, up parallel to the view direction,
+ * fov outside (0, 180), a size outside [1, RAY_MAX_SIZE], non-finite input. */
+int ray_camera_init(ray_camera_t *cam, const double eye[3], const double target[3],
+                    const double up[3], double fov_deg, int width, int height,
+                    ivoct_error_t *err);
+
+/* The unit direction of the primary ray of pixel (col, row), row 0 at the top,
+ * through the pixel centre.  Every ray starts at cam->eye. */
+void ray_camera_dir(const ray_camera_t *cam, int col, int row, double d[3]);
+
+/* The camera turned by `angle` radians about the axis through target along
+ * up (a turntable); size, fov and up are kept. */
+int ray_camera_orbit(const ray_camera_t *cam, double angle, ray_camera_t *out,
+                     ivoct_error_t *err);
+
+/* The rounded point of the ray at t: p[i] = o[i] + t*d[i] in double, without
+ * fused multiply-add (the exact point the root finders evaluate at). */
+void ray_point(const double o[3], const double d[3], double t, double p[3]);
+
+/* Clip the ray o + t·d, t >= 0, to box {xmin xmax ymin ymax zmin zmax}.
+ * Returns 1 with [*t0, *t1] (t0 <= t1), an enclosure of the exact parameter
+ * range inside the box (widened outward by the rounding of the divisions),
+ * or 0 when the ray misses the box. */
+int ray_clip_box(const double box[6], const double o[3], const double d[3], double *t0,
+                 double *t1);
+
+/* ---- root finding on one segment ------------------------------------------------ */
+
+typedef struct ray_opts {
+    /* A segment T on which neither the value test nor the monotonicity test
+     * decides is accepted as a hit (a double root: silhouette, whisker, singular
+     * point, or unresolved) once w(T) <= tol_rel * max(|t0|, |t1|) of the
+     * segment given (and never below 8 ulps).  Default 2^-44 ≈ 5.7e-14. */
+    double tol_rel;
+    /* sampling only: the step in t (distance along the unit direction).
+     * <= 0: (t1 - t0) / 1000 for each segment. */
+    double sample_step;
+    /* Safety net: after this many segments of one search the first unresolved
+     * one is reported as a hit (RAY_HIT_BUDGET).  Default 100000. */
+    long max_nodes;
+} ray_opts_t;
+
+void ray_opts_default(ray_opts_t *o);
+
+typedef enum ray_hit_kind {
+    RAY_MISS = 0,    /* no root in [t0, t1]: certified (sampling: none found) */
+    RAY_HIT_ROOT,    /* a certified sign change, the root refined to a few ulps */
+    RAY_HIT_ZERO,    /* the enclosure of f at the point contains 0 (a root within
+                      * the evaluation's rounding; the sign cannot be decided) */
+    RAY_HIT_TANGENT, /* an undecided segment reached the tolerance (double root) */
+    RAY_HIT_BUDGET   /* max_nodes or the search stack ran out: t is the start of
+                      * the first unresolved segment (conservative) */
+} ray_hit_kind_t;
+
+typedef struct ray_result {
+    ray_hit_kind_t kind;
+    double t;           /* the hit; NaN on a miss */
+    double t_lo, t_hi;  /* the final bracket (or accepted segment); NaN on a miss */
+    uint64_t evals;     /* tape passes: evaluator calls, each of up to TAPE_LANES boxes */
+    uint64_t nodes;     /* segments examined */
+} ray_result_t;
+
+/* The first root of g(t) = f(o + t·d) in [t0, t1] (the smallest t) with method
+ * m.  ws must fit tape (tape_ws_new(n >= tape->n)).  Returns res->kind:
+ * non-zero on a hit.  d should be a unit vector for t to be a distance.  Rays
+ * and segments with t0 > t1 or non-finite input are misses. */
+ray_hit_kind_t ray_find_root(const tape_t *tape, tape_ws_t *ws, ray_method_t m,
+                             const ray_opts_t *opts, const double o[3], const double d[3],
+                             double t0, double t1, ray_result_t *res);
+
+/* ---- interval sources: the seam between ray casting and space subdivision -------- */
+
+typedef struct ray_segment {
+    double t_in, t_out;    /* t_in <= t_out */
+    const tape_t *tape;    /* the tape valid on the segment (e.g. pruned for an octree
+                            * leaf), or NULL for the renderer's tape */
+} ray_segment_t;
+
+/* For each ray the renderer calls begin once, then next until it returns 0 or
+ * the root finder reports a hit.  Segments must come front to back (t_in
+ * non-decreasing, not overlapping but for shared ends).  state points to
+ * state_size bytes owned by the renderer (one buffer per thread, reused for
+ * every ray; aligned for any type); ctx is shared by all threads, read-only.
+ * leaves (may be NULL) counts what the source visited for the statistics. */
+typedef struct ray_source {
+    void *ctx;
+    size_t state_size;
+    void (*begin)(const void *ctx, void *state, const double o[3], const double d[3]);
+    int (*next)(const void *ctx, void *state, ray_segment_t *seg, uint64_t *leaves);
+} ray_source_t;
+
+/* The source for --no-octree: one segment, the ray clipped to box (ray_clip_box).
+ * bs holds the box and must outlive the source. */
+typedef struct ray_box_source {
+    double box[6];
+} ray_box_source_t;
+
+ray_source_t ray_box_source(ray_box_source_t *bs, const double box[6]);
+
+/* ---- rendering -------------------------------------------------------------------- */
+
+/* The buffers of DESIGN.md §4, row-major with row 0 the top of the image:
+ * pixel (col, row) at index row*width + col, 3-vectors at 3*index. */
+typedef struct ray_image {
+    int width, height;
+    double *t;            /* distance along dir to the first hit; NaN on a miss */
+    unsigned char *hit;   /* 1 hit, 0 miss */
+    unsigned char *kind;  /* ray_hit_kind_t */
+    double *point;        /* the hit position ray_point(eye, dir, t); NaN on a miss */
+    double *normal;       /* ∇f/|∇f| at the point (see ray/README.md for the
+                           * fallback at singular points); NaN on a miss */
+    double *dir;          /* the unit ray direction */
+    unsigned char *rgb;   /* the shaded image, 8-bit sRGB */
+} ray_image_t;
+
+int ray_image_alloc(ray_image_t *img, int width, int height, ivoct_error_t *err);
+void ray_image_free(ray_image_t *img);
+
+typedef struct ray_stats {
+    uint64_t rays;         /* primary rays (pixels) */
+    uint64_t hits;         /* rays with a hit */
+    uint64_t tangent_hits; /* hits of kind RAY_HIT_TANGENT or RAY_HIT_BUDGET */
+    uint64_t tape_evals;   /* tape passes (see ray_result_t.evals), shading included */
+    uint64_t segments;     /* segments the root finder ran on */
+    uint64_t leaves;       /* what the sources counted */
+    double time_s;         /* wall clock of ray_render */
+    int threads;           /* threads used */
+} ray_stats_t;
+
+typedef struct ray_render_opts {
+    ray_method_t method;
+    ray_opts_t roots;
+    int threads;   /* <= 0: OpenMP's default */
+    /* Called now and then with the fraction done, from one thread only; may be NULL. */
+    void (*progress)(void *ctx, double fraction);
+    void *progress_ctx;
+} ray_render_opts_t;
+
+void ray_render_opts_default(ray_render_opts_t *o);
+
+/* Render img (allocated with the camera's size) with the given tape, camera
+ * and source.  OpenMP over tiles of the image; the buffers and the counters in
+ * stats do not depend on the number of threads.  Errors: size mismatch, out
+ * of memory. */
+int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *src,
+               const ray_render_opts_t *opts, ray_image_t *img, ray_stats_t *stats,
+               ivoct_error_t *err);
+
+/* Lambert + ambient shading of one pixel: normal n at a hit seen along d (a
+ * two-sided light fixed to the camera); background where !hit. */
+void ray_shade(const ray_camera_t *cam, const double d[3], const double n[3], int hit,
+               unsigned char rgb[3]);
+
+/* ---- output -------------------------------------------------------------------------- */
+
+/* 8-bit RGB PNG of img->rgb (libpng). */
+int ray_write_png(FILE *f, const ray_image_t *img, ivoct_error_t *err);
+
+/* VTK XML ImageData (.vti), one point per pixel, point arrays t, hit, point,
+ * normal, dir (Float64, base64 "binary" format), with the camera (eye, target,
+ * up, fov) and the method as field data.  VTK's y axis points up: image row r
+ * is VTK row height-1-r, so the data shows upright. */
+int ray_write_vti(FILE *f, const ray_image_t *img, const ray_camera_t *cam,
+                  const char *method, ivoct_error_t *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,310 @@
+/* ivoct ray — the render loop: tiles over OpenMP, one primary ray per pixel,
+ * segments from an interval source, normals and shading. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <omp.h>
+
+#include "ray.h"
+
+#define TILE 16
+
+/* ---- the box source (--no-octree) ------------------------------------------------- */
+
+typedef struct box_state {
+    double t0, t1;
+    int pending;
+} box_state_t;
+
+static void box_begin(const void *ctx, void *state, const double o[3], const double d[3])
+{
+    const ray_box_source_t *bs = ctx;
+    box_state_t *st = state;
+    st->pending = ray_clip_box(bs->box, o, d, &st->t0, &st->t1);
+}
+
+static int box_next(const void *ctx, void *state, ray_segment_t *seg, uint64_t *leaves)
+{
+    (void)ctx;
+    (void)leaves;
+    box_state_t *st = state;
+    if (!st->pending)
+        return 0;
+    st->pending = 0;
+    seg->t_in = st->t0;
+    seg->t_out = st->t1;
+    seg->tape = NULL;
+    return 1;
+}
+
+ray_source_t ray_box_source(ray_box_source_t *bs, const double box[6])
+{
+    memcpy(bs->box, box, sizeof bs->box);
+    ray_source_t s = {bs, sizeof(box_state_t), box_begin, box_next};
+    return s;
+}
+
+/* ---- images ---------------------------------------------------------------------------- */
+
+int ray_image_alloc(ray_image_t *img, int width, int height, ivoct_error_t *err)
+{
+    memset(img, 0, sizeof *img);
+    if (width < 1 || height < 1 || width > RAY_MAX_SIZE || height > RAY_MAX_SIZE) {
+        ivoct_error_set(err, "image size %dx%d out of range", width, height);
+        return 1;
+    }
+    size_t n = (size_t)width * (size_t)height;
+    img->width = width;
+    img->height = height;
+    img->t = malloc(n * sizeof *img->t);
+    img->hit = malloc(n);
+    img->kind = malloc(n);
+    img->point = malloc(3 * n * sizeof *img->point);
+    img->normal = malloc(3 * n * sizeof *img->normal);
+    img->dir = malloc(3 * n * sizeof *img->dir);
+    img->rgb = malloc(3 * n);
+    if (!img->t || !img->hit || !img->kind || !img->point || !img->normal || !img->dir ||
+        !img->rgb) {
+        ray_image_free(img);
+        ivoct_error_set(err, "out of memory for a %dx%d image", width, height);
+        return 1;
+    }
+    return 0;
+}
+
+void ray_image_free(ray_image_t *img)
+{
+    free(img->t);
+    free(img->hit);
+    free(img->kind);
+    free(img->point);
+    free(img->normal);
+    free(img->dir);
+    free(img->rgb);
+    memset(img, 0, sizeof *img);
+}
+
+/* ---- shading ------------------------------------------------------------------------------ */
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static unsigned char to_srgb8(double c)
+{
+    c = c < 0 ? 0 : c > 1 ? 1 : c;
+    return (unsigned char)(255.0 * pow(c, 1.0 / 2.2) + 0.5);
+}
+
+void ray_shade(const ray_camera_t *cam, const double d[3], const double n[3], int hit,
+               unsigned char rgb[3])
+{
+    static const double background[3] = {0.012, 0.014, 0.02};
+    /* the side ∇f points to (f increasing: "outside") warm, the other cool */
+    static const double warm[3] = {0.92, 0.55, 0.22}, cool[3] = {0.25, 0.45, 0.85};
+    if (!hit) {
+        for (int i = 0; i < 3; i++)
+            rgb[i] = to_srgb8(background[i]);
+        return;
+    }
+    /* a light above and to the left of the eye, fixed to the camera */
+    double L[3];
+    for (int i = 0; i < 3; i++)
+        L[i] = -cam->fwd[i] + 0.7 * cam->vup[i] - 0.4 * cam->right[i];
+    double ln = sqrt(dot3(L, L));
+    double nd = dot3(n, d);
+    const double *base = nd <= 0 ? warm : cool;
+    /* two-sided: light the side facing the eye */
+    double lambert = (nd <= 0 ? 1.0 : -1.0) * dot3(n, L) / ln;
+    if (!(lambert > 0))
+        lambert = 0;
+    for (int i = 0; i < 3; i++)
+        rgb[i] = to_srgb8(base[i] * (0.15 + 0.85 * lambert));
+}
+
+/* ∇f/|∇f| from a gradient enclosure at the hit point.  Where the enclosure
+ * holds 0 in every component (a singular point, ∇f = 0, or an enclosure too
+ * wide to tell) or the midpoint is not a usable direction, the normal faces
+ * the eye: -d. */
+static void normal_from(const iv_grad_t *g, const double d[3], double n[3])
+{
+    const iv_t c[3] = {g->dx, g->dy, g->dz};
+    int all_zero = 1;
+    for (int i = 0; i < 3; i++) {
+        n[i] = iv_mid(c[i]);
+        if (!iv_contains(c[i], 0.0))
+            all_zero = 0;
+    }
+    double len = sqrt(dot3(n, n));
+    if (all_zero || !(len > 0) || !isfinite(len)) {
+        for (int i = 0; i < 3; i++)
+            n[i] = -d[i];
+        return;
+    }
+    for (int i = 0; i < 3; i++)
+        n[i] /= len;
+}
+
+/* ---- the loop ------------------------------------------------------------------------------ */
+
+void ray_render_opts_default(ray_render_opts_t *o)
+{
+    memset(o, 0, sizeof *o);
+    o->method = RAY_NEWTON_AH;
+    ray_opts_default(&o->roots);
+}
+
+typedef struct counters {
+    uint64_t hits, tangent, evals, segments, leaves;
+} counters_t;
+
+static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *cam,
+                        const ray_source_t *src, void *state, const ray_render_opts_t *opts,
+                        ray_image_t *img, int tx, int ty, counters_t *cnt)
+{
+    const int W = img->width, H = img->height;
+    int c0 = tx * TILE, r0 = ty * TILE;
+    int c1 = c0 + TILE < W ? c0 + TILE : W, r1 = r0 + TILE < H ? r0 + TILE : H;
+    size_t hits[TILE * TILE];
+    int nh = 0;
+
+    for (int row = r0; row < r1; row++)
+        for (int col = c0; col < c1; col++) {
+            size_t i = (size_t)row * W + col;
+            double *d = img->dir + 3 * i;
+            ray_camera_dir(cam, col, row, d);
+            ray_result_t best = {RAY_MISS, NAN, NAN, NAN, 0, 0};
+            ray_segment_t seg;
+            src->begin(src->ctx, state, cam->eye, d);
+            while (src->next(src->ctx, state, &seg, &cnt->leaves)) {
+                ray_result_t r;
+                cnt->segments++;
+                ray_find_root(seg.tape ? seg.tape : tape, ws, opts->method, &opts->roots,
+                              cam->eye, d, seg.t_in, seg.t_out, &r);
+                cnt->evals += r.evals;
+                if (r.kind != RAY_MISS) {
+                    best = r;
+                    break;
+                }
+            }
+            img->t[i] = best.t;
+            img->kind[i] = (unsigned char)best.kind;
+            img->hit[i] = best.kind != RAY_MISS;
+            if (best.kind != RAY_MISS) {
+                ray_point(cam->eye, d, best.t, img->point + 3 * i);
+                hits[nh++] = i;
+                cnt->hits++;
+                if (best.kind == RAY_HIT_TANGENT || best.kind == RAY_HIT_BUDGET)
+                    cnt->tangent++;
+            } else {
+                for (int k = 0; k < 3; k++)
+                    img->point[3 * i + k] = img->normal[3 * i + k] = NAN;
+                ray_shade(cam, d, NULL, 0, img->rgb + 3 * i);
+            }
+        }
+
+    /* normals of the tile's hits, TAPE_LANES per evaluator call */
+    for (int b = 0; b < nh; b += TAPE_LANES) {
+        int m = nh - b < TAPE_LANES ? nh - b : TAPE_LANES;
+        iv_box_t box[TAPE_LANES];
+        iv_grad_t g[TAPE_LANES];
+        for (int k = 0; k < m; k++) {
+            const double *p = img->point + 3 * hits[b + k];
+            box[k].x = iv_point(p[0]);
+            box[k].y = iv_point(p[1]);
+            box[k].z = iv_point(p[2]);
+        }
+        tape_eval_grad(tape, ws, (size_t)m, box, g);
+        cnt->evals++;
+        for (int k = 0; k < m; k++) {
+            size_t i = hits[b + k];
+            normal_from(&g[k], img->dir + 3 * i, img->normal + 3 * i);
+            ray_shade(cam, img->dir + 3 * i, img->normal + 3 * i, 1, img->rgb + 3 * i);
+        }
+    }
+}
+
+int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *src,
+               const ray_render_opts_t *opts, ray_image_t *img, ray_stats_t *stats,
+               ivoct_error_t *err)
+{
+    ray_render_opts_t def;
+    if (!opts) {
+        ray_render_opts_default(&def);
+        opts = &def;
+    }
+    if (stats)
+        memset(stats, 0, sizeof *stats);
+    if (!tape || !cam || !src || !img) {
+        ivoct_error_set(err, "ray_render: missing argument");
+        return 1;
+    }
+    if (img->width != cam->width || img->height != cam->height) {
+        ivoct_error_set(err, "ray_render: image %dx%d does not match the camera's %dx%d",
+                        img->width, img->height, cam->width, cam->height);
+        return 1;
+    }
+    if ((unsigned)opts->method >= RAY_METHOD_COUNT) {
+        ivoct_error_set(err, "ray_render: invalid method %d", (int)opts->method);
+        return 1;
+    }
+    const int tiles_x = (img->width + TILE - 1) / TILE, tiles_y = (img->height + TILE - 1) / TILE;
+    const long ntiles = (long)tiles_x * tiles_y;
+    const int nthreads = opts->threads > 0 ? opts->threads : omp_get_max_threads();
+    double start = omp_get_wtime();
+    uint64_t hits = 0, tangent = 0, evals = 0, segments = 0, leaves = 0;
+    int failed = 0, used = 1;
+    long done = 0;
+
+#pragma omp parallel num_threads(nthreads) reduction(+ : hits, tangent, evals, segments, leaves)
+    {
+        tape_ws_t *ws = tape_ws_new(tape->n);
+        void *state = malloc(src->state_size ? src->state_size : 1);
+        int ok = ws && state;
+        if (!ok) {
+#pragma omp atomic write
+            failed = 1;
+        }
+#pragma omp single
+        used = omp_get_num_threads();
+#pragma omp for schedule(dynamic, 1)
+        for (long tile = 0; tile < ntiles; tile++) {
+            if (!ok)
+                continue;
+            counters_t cnt = {0, 0, 0, 0, 0};
+            render_tile(tape, ws, cam, src, state, opts, img, (int)(tile % tiles_x),
+                        (int)(tile / tiles_x), &cnt);
+            hits += cnt.hits;
+            tangent += cnt.tangent;
+            evals += cnt.evals;
+            segments += cnt.segments;
+            leaves += cnt.leaves;
+            long now;
+#pragma omp atomic capture
+            now = ++done;
+            if (opts->progress && omp_get_thread_num() == 0)
+                opts->progress(opts->progress_ctx, (double)now / (double)ntiles);
+        }
+        free(state);
+        tape_ws_free(ws);
+    }
+    if (failed) {
+        ivoct_error_set(err, "out of memory for the render workspaces");
+        return 1;
+    }
+    if (opts->progress)
+        opts->progress(opts->progress_ctx, 1.0);
+    if (stats) {
+        stats->rays = (uint64_t)img->width * (uint64_t)img->height;
+        stats->hits = hits;
+        stats->tangent_hits = tangent;
+        stats->tape_evals = evals;
+        stats->segments = segments;
+        stats->leaves = leaves;
+        stats->time_s = omp_get_wtime() - start;
+        stats->threads = used;
+    }
+    return 0;
+}

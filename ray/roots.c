@@ -1,0 +1,742 @@
+/* ivoct ray — the root finders on one ray segment.
+ *
+ * g(t) = f(o + t·d).  Every certified method is a left-first search over
+ * sub-segments T = [a, b] of [t0, t1] held on an explicit stack (the right
+ * sibling waits while the left one is searched), so the first hit found is
+ * the smallest t.  A node carries, from one batched tape pass:
+ *   G   = F(box of T): the natural interval enclosure of g over T;
+ *   G'  = ∇F(box of T)·d (derivative methods);
+ *   [g] at a, b and m = mid(T): enclosures of f at the rounded points.
+ * The methods differ only in the tests they apply to a node and in how they
+ * shrink it; ray/README.md has each one and where it departs from the papers.
+ *
+ * Batching: one evaluator call costs the same for 1 to TAPE_LANES boxes, so a
+ * bisection evaluates both halves and both of their midpoints in one call
+ * (4 lanes); a Newton step its new segment, midpoint and ends (4 lanes);
+ * a refinement step up to 6 candidate points.
+ */
+#include <math.h>
+#include <string.h>
+
+#include "ray.h"
+
+#define NL TAPE_LANES
+#define STACK_MAX 160
+
+/* ---- methods by name --------------------------------------------------------------- */
+
+static const char *const NAMES[RAY_METHOD_COUNT] = {
+    "mitchell", "newton", "newton-ah", "mrfro", "mrfro-newton", "lipschitz", "sampling",
+};
+
+const char *ray_method_name(ray_method_t m)
+{
+    return (unsigned)m < RAY_METHOD_COUNT ? NAMES[m] : NULL;
+}
+
+int ray_method_parse(const char *name, ray_method_t *m)
+{
+    for (int i = 0; i < RAY_METHOD_COUNT; i++)
+        if (name && !strcmp(name, NAMES[i])) {
+            *m = (ray_method_t)i;
+            return 0;
+        }
+    return 1;
+}
+
+int ray_method_certified(ray_method_t m)
+{
+    return (unsigned)m < RAY_METHOD_COUNT && m != RAY_SAMPLING;
+}
+
+void ray_opts_default(ray_opts_t *o)
+{
+    o->tol_rel = 0x1p-44;
+    o->sample_step = 0;
+    o->max_nodes = 100000;
+}
+
+/* ---- evaluation ---------------------------------------------------------------------- */
+
+typedef struct ctx {
+    const tape_t *tape;
+    tape_ws_t *ws;
+    const double *o, *d;
+    int deriv;       /* derivatives wanted (all certified methods but mrfro) */
+    int lazy;        /* ...only where the interval test cannot exclude (not lipschitz) */
+    uint64_t evals;  /* evaluator calls */
+    uint64_t nodes;  /* segments examined */
+} ctx_t;
+
+/* Up to NL requests of one evaluator call: a segment [lo, hi] or a point (pt). */
+typedef struct lanes {
+    int n;
+    double lo[NL], hi[NL];
+    unsigned char pt[NL];
+    iv_grad_t out[NL];
+} lanes_t;
+
+static int lane_point(lanes_t *L, double t)
+{
+    for (int k = 0; k < L->n; k++)
+        if (L->pt[k] && L->lo[k] == t)
+            return k;
+    L->lo[L->n] = L->hi[L->n] = t;
+    L->pt[L->n] = 1;
+    return L->n++;
+}
+
+static int lane_box(lanes_t *L, double a, double b)
+{
+    L->lo[L->n] = a;
+    L->hi[L->n] = b;
+    L->pt[L->n] = 0;
+    return L->n++;
+}
+
+static void run(ctx_t *c, lanes_t *L, int grad)
+{
+    iv_box_t box[NL];
+    for (int k = 0; k < L->n; k++) {
+        double pa[3], pb[3];
+        ray_point(c->o, c->d, L->lo[k], pa);
+        iv_t *ax = &box[k].x;
+        if (L->pt[k]) {
+            for (int i = 0; i < 3; i++)
+                ax[i] = iv_point(pa[i]);
+            continue;
+        }
+        /* The exact segment o + [a,b]·d, hulled with the rounded points of a and
+         * b: fl(o + fl(t·d)) is monotone in t, so every rounded point of T lies
+         * between those two and the box encloses it too. */
+        ray_point(c->o, c->d, L->hi[k], pb);
+        iv_t T = iv_make(L->lo[k], L->hi[k]);
+        for (int i = 0; i < 3; i++) {
+            iv_t s = iv_add(iv_point(c->o[i]), iv_mul(T, iv_point(c->d[i])));
+            ax[i] = iv_hull(iv_hull(s, iv_point(pa[i])), iv_point(pb[i]));
+        }
+    }
+    if (grad) {
+        tape_eval_grad(c->tape, c->ws, (size_t)L->n, box, L->out);
+    } else {
+        iv_t v[NL];
+        tape_eval_interval(c->tape, c->ws, (size_t)L->n, box, v);
+        for (int k = 0; k < L->n; k++) {
+            L->out[k].v = v[k];
+            L->out[k].dx = L->out[k].dy = L->out[k].dz = iv_entire();
+        }
+    }
+    c->evals++;
+}
+
+/* g' = ∇f·d from a gradient enclosure */
+static iv_t dir_deriv(const ctx_t *c, const iv_grad_t *g)
+{
+    iv_t r = iv_mul(g->dx, iv_point(c->d[0]));
+    r = iv_add(r, iv_mul(g->dy, iv_point(c->d[1])));
+    return iv_add(r, iv_mul(g->dz, iv_point(c->d[2])));
+}
+
+/* ---- nodes ----------------------------------------------------------------------------- */
+
+typedef struct node {
+    double a, b, m;
+    iv_t G;           /* F over the box of T (natural inclusion) */
+    iv_t Gp;          /* G'(T) = ∇F(box)·d; entire without derivatives */
+    iv_t R;           /* the rounding of the points: f at any rounded point of T, or
+                       * the exact g(t), lies in [g(m)] + G'(T)·(T - m) + R */
+    iv_t ga, gb, gm;  /* f at the rounded points of a, b, m */
+    double dga, dgb, dgm; /* midpoints of g' there (Newton estimates); NaN if unknown */
+} node_t;
+
+static void node_init(node_t *n, double a, double b)
+{
+    n->a = a;
+    n->b = b;
+    n->m = 0.5 * a + 0.5 * b;
+}
+
+static double mid_deriv(const ctx_t *c, const iv_grad_t *g)
+{
+    return c->deriv ? iv_mid(dir_deriv(c, g)) : NAN;
+}
+
+/* R: the points evaluated are p~(t) = p(t) + r(t) with |r_i(t)| <= 2^-52(|o_i| +
+ * 2|t d_i|) (two roundings of at most 2^-53 relative each); f(p~(t)) - f(p~(m))
+ * and g(t) - f(p~(m)) differ from ∇f(ξ)·(t - m)d by ∇f(ξ)·(r(t) - r(m)) or
+ * ∇f(ξ)·(-r(m)), ξ in the box; we bound |r(t) - r(m)| by twice the larger r. */
+static iv_t rounding_term(const ctx_t *c, const node_t *n, const iv_grad_t *box)
+{
+    double tmax = fmax(fabs(n->a), fabs(n->b));
+    const iv_t *gi = &box->dx;
+    iv_t sum = iv_point(0.0);
+    for (int i = 0; i < 3; i++) {
+        double r = iv_up(iv_up(fabs(c->o[i]) + iv_up(2.0 * tmax * fabs(c->d[i]))) * 0x1p-51);
+        sum = iv_add(sum, iv_mul(gi[i], iv_make(-r, r)));
+    }
+    return sum;
+}
+
+static void set_deriv(const ctx_t *c, node_t *n, const iv_grad_t *box, const iv_grad_t *mid,
+                      const iv_grad_t *a, const iv_grad_t *b)
+{
+    n->Gp = dir_deriv(c, box);
+    n->R = rounding_term(c, n, box);
+    n->dgm = mid_deriv(c, mid);
+    if (a)
+        n->dga = mid_deriv(c, a);
+    if (b)
+        n->dgb = mid_deriv(c, b);
+}
+
+/* Evaluate k (<= 2) nodes: box and midpoint, and both ends when `ends` (else
+ * the caller has set them).  Derivative methods get G' and the derivatives at
+ * the points from a gradient pass; except lipschitz, whose test needs G' on
+ * every segment, that pass is made only for the nodes the interval test could
+ * not exclude (an interval pass costs a fraction of a gradient pass, and
+ * most segments of a search are excluded). */
+static void eval_nodes(ctx_t *c, node_t *n, int k, int ends)
+{
+    lanes_t L = {0};
+    int ib[2], im[2], ia[2], ie[2];
+    for (int j = 0; j < k; j++) {
+        ib[j] = lane_box(&L, n[j].a, n[j].b);
+        im[j] = lane_point(&L, n[j].m);
+        if (ends) {
+            ia[j] = lane_point(&L, n[j].a);
+            ie[j] = lane_point(&L, n[j].b);
+        }
+    }
+    const int grad_now = c->deriv && !c->lazy;
+    run(c, &L, grad_now);
+    for (int j = 0; j < k; j++) {
+        n[j].G = L.out[ib[j]].v;
+        n[j].gm = L.out[im[j]].v;
+        n[j].Gp = n[j].R = iv_entire();
+        n[j].dgm = NAN;
+        if (ends) {
+            n[j].ga = L.out[ia[j]].v;
+            n[j].gb = L.out[ie[j]].v;
+            n[j].dga = n[j].dgb = NAN;
+        }
+        if (grad_now)
+            set_deriv(c, &n[j], &L.out[ib[j]], &L.out[im[j]], ends ? &L.out[ia[j]] : NULL,
+                      ends ? &L.out[ie[j]] : NULL);
+    }
+    if (!c->deriv || grad_now)
+        return;
+    lanes_t D = {0};
+    int need[2] = {0, 0}, any = 0;
+    for (int j = 0; j < k; j++) {
+        if (!iv_contains(n[j].G, 0.0))
+            continue;
+        need[j] = any = 1;
+        ib[j] = lane_box(&D, n[j].a, n[j].b);
+        im[j] = lane_point(&D, n[j].m);
+        if (ends) {
+            ia[j] = lane_point(&D, n[j].a);
+            ie[j] = lane_point(&D, n[j].b);
+        }
+    }
+    if (!any)
+        return;
+    run(c, &D, 1);
+    for (int j = 0; j < k; j++)
+        if (need[j])
+            set_deriv(c, &n[j], &D.out[ib[j]], &D.out[im[j]], ends ? &D.out[ia[j]] : NULL,
+                      ends ? &D.out[ie[j]] : NULL);
+}
+
+static void eval_full(ctx_t *c, node_t *n, int k) { eval_nodes(c, n, k, 1); }
+
+/* The halves of p: ends known from p, one pass for both boxes and midpoints. */
+static void eval_halves(ctx_t *c, const node_t *p, node_t *l, node_t *r)
+{
+    node_t h[2];
+    node_init(&h[0], p->a, p->m);
+    node_init(&h[1], p->m, p->b);
+    h[0].ga = p->ga, h[0].dga = p->dga, h[0].gb = p->gm, h[0].dgb = p->dgm;
+    h[1].ga = p->gm, h[1].dga = p->dgm, h[1].gb = p->gb, h[1].dgb = p->dgb;
+    eval_nodes(c, h, 2, 0);
+    *l = h[0];
+    *r = h[1];
+}
+
+/* ---- small predicates --------------------------------------------------------------------- */
+
+enum { S_NEG = -1, S_ZERO = 0, S_POS = 1, S_UNDEF = 2 };
+
+/* Certified sign of an enclosure at a point.  S_ZERO: the enclosure is finite
+ * and holds 0 (f vanishes within the rounding); S_UNDEF: empty (f undefined) or
+ * unbounded, which tells nothing. */
+static int sgn(iv_t g)
+{
+    if (iv_is_empty(g))
+        return S_UNDEF;
+    if (g.lo > 0)
+        return S_POS;
+    if (g.hi < 0)
+        return S_NEG;
+    return isfinite(g.lo) && isfinite(g.hi) ? S_ZERO : S_UNDEF;
+}
+
+static int is_sign(int s) { return s == S_POS || s == S_NEG; }
+
+static double ulp(double x)
+{
+    x = fabs(x);
+    return nextafter(x, INFINITY) - x;
+}
+
+/* T is as narrow as the refinement goes: a few ulps */
+static int tiny(double a, double b)
+{
+    return b - a <= 4.0 * ulp(fmax(fabs(a), fabs(b)));
+}
+
+/* 0 ∉ G(T): no root (an empty G — f defined nowhere on T — also holds none) */
+static int excluded(const node_t *n) { return !iv_contains(n->G, 0.0); }
+
+/* 0 ∉ G'(T): g strictly monotone on T */
+static int monotone(const node_t *n) { return !iv_is_empty(n->Gp) && !iv_contains(n->Gp, 0.0); }
+
+/* Kalra–Barr: |g(m)| > G·h with G >= sup |g'| on T and h = max(m - a, b - m)
+ * (plus the rounding of the points): no root.  Where the test has nothing to
+ * work with — f undefined at m, or no finite bound G (f not Lipschitz on T,
+ * e.g. sqrt at 0) — the interval test 0 ∉ F(T) stands in. */
+static int lipschitz_excluded(const node_t *n)
+{
+    int s = sgn(n->gm);
+    double G = fmax(fabs(n->Gp.lo), fabs(n->Gp.hi));
+    if (s == S_UNDEF || !isfinite(G))
+        return excluded(n);
+    if (!is_sign(s))
+        return 0;
+    double h = iv_up(fmax(n->m - n->a, n->b - n->m));
+    double bound = iv_up(iv_up(G * h) + fmax(fabs(n->R.lo), fabs(n->R.hi)));
+    double mig = s == S_POS ? n->gm.lo : -n->gm.hi;
+    return mig > bound; /* false when bound is NaN */
+}
+
+static ray_hit_kind_t hit(ray_result_t *res, ray_hit_kind_t kind, double t, double lo,
+                          double hi)
+{
+    res->kind = kind;
+    res->t = t;
+    res->t_lo = lo;
+    res->t_hi = hi;
+    return kind;
+}
+
+/* ---- refinement of a monotone bracket ------------------------------------------------------
+ * g is monotone on [a, b], f at a has certified sign sa, and b is "not sa"
+ * (certified opposite, or holding 0).  The bracket is shrunk to the boundary
+ * between the points where sign sa is certified and the rest: the reported hit
+ * is the first point, to a few ulps, where the evaluation cannot certify that
+ * the surface is still ahead.  Each call evaluates the midpoint (so the bracket
+ * at least halves), a Newton estimate x from the end with the smaller |g|, and
+ * guards x ± e/16, x ± e/1024 where e is the last Newton correction: once
+ * Newton converges quadratically the guards bracket the root and the bracket
+ * collapses. */
+static ray_hit_kind_t refine(ctx_t *c, double a, double b, int sa, iv_t ga, double dga,
+                             iv_t gb, double dgb, ray_result_t *res)
+{
+    int proven = sgn(gb) == -sa;
+    double xprev = NAN;
+    for (int it = 0; it < 200 && !tiny(a, b); it++) {
+        double m = 0.5 * a + 0.5 * b;
+        double fa = iv_mid(ga), fb = iv_mid(gb), x = NAN;
+        if (isfinite(dga) && dga != 0)
+            x = a - fa / dga;
+        if (sgn(gb) == -sa && isfinite(dgb) && dgb != 0 && fabs(fb) < fabs(fa))
+            x = b - fb / dgb;
+        if (!(x > a && x < b))
+            x = m;
+        double e = isfinite(xprev) ? fabs(x - xprev) : (b - a) / 64;
+        double cand[6] = {m, x, x - e / 16, x + e / 16, x - e / 1024, x + e / 1024};
+        lanes_t L = {0};
+        for (int k = 0; k < 6; k++)
+            if (cand[k] > a && cand[k] < b)
+                lane_point(&L, cand[k]);
+        run(c, &L, 1);
+        /* b: the smallest point not certified sa; a: the largest sa point before it */
+        for (int k = 0; k < L.n; k++) {
+            int s = sgn(L.out[k].v);
+            if (s != sa && L.lo[k] < b) {
+                b = L.lo[k];
+                gb = L.out[k].v;
+                dgb = mid_deriv(c, &L.out[k]);
+            }
+            if (s == -sa)
+                proven = 1;
+        }
+        for (int k = 0; k < L.n; k++)
+            if (sgn(L.out[k].v) == sa && L.lo[k] > a && L.lo[k] < b) {
+                a = L.lo[k];
+                ga = L.out[k].v;
+                dga = mid_deriv(c, &L.out[k]);
+            }
+        xprev = x;
+    }
+    double t = sgn(gb) == S_ZERO ? b : 0.5 * a + 0.5 * b;
+    return hit(res, proven ? RAY_HIT_ROOT : RAY_HIT_ZERO, t, a, b);
+}
+
+/* The monotone case of mitchell and lipschitz: one root iff the end signs differ. */
+static ray_hit_kind_t monotone_case(ctx_t *c, const node_t *n, ray_result_t *res)
+{
+    int sa = sgn(n->ga), sb = sgn(n->gb);
+    if (sa == S_ZERO)
+        return hit(res, RAY_HIT_ZERO, n->a, n->a, n->a);
+    if (is_sign(sa) && sa == sb)
+        return RAY_MISS;
+    return refine(c, n->a, n->b, sa, n->ga, n->dga, n->gb, n->dgb, res);
+}
+
+/* ---- interval Newton on a monotone segment ---------------------------------------------------
+ * T <- T ∩ N(T), N(T) = m - [g(m)] / G'(T), with [g(m)] widened by R to hold the
+ * exact g(m).  Empty: no root.  N(T) inside the interior of T proves a root.
+ * Iterates to a few ulps, or until a step no longer removes a quarter of T (the
+ * rounding of g(m) then dominates: the monotone refinement finishes the job
+ * from the end signs).  Returns a hit kind, or UNDECIDED (with *np shrunk) when
+ * f is undefined at the points it needs: the caller bisects. */
+#define UNDECIDED (-1)
+
+static int newton_case(ctx_t *c, node_t *np, ray_result_t *res)
+{
+    node_t n = *np;
+    int proven = 0;
+    for (int it = 0; it < 200 && !tiny(n.a, n.b); it++) {
+        iv_t N = iv_sub(iv_point(n.m), iv_div(iv_add(n.gm, n.R), n.Gp));
+        if (iv_is_empty(N))
+            break;
+        double lo = fmax(N.lo, n.a), hi = fmin(N.hi, n.b);
+        if (lo > hi)
+            return RAY_MISS;
+        if (N.lo > n.a && N.hi < n.b)
+            proven = 1;
+        if (hi - lo > 0.75 * (n.b - n.a))
+            break;
+        node_t nn;
+        node_init(&nn, lo, hi);
+        eval_full(c, &nn, 1);
+        c->nodes++;
+        if (excluded(&nn) && !proven)
+            return RAY_MISS;
+        n = nn;
+        if (!monotone(&n))
+            break; /* cannot happen for a sub-segment, but keep the logic honest */
+    }
+    *np = n;
+    int sa = sgn(n.ga), sb = sgn(n.gb);
+    if (!proven && is_sign(sa) && sa == sb)
+        return RAY_MISS;
+    if (sa == S_ZERO)
+        return hit(res, RAY_HIT_ZERO, n.a, n.a, n.b);
+    if (!is_sign(sa) || sb == S_UNDEF)
+        return UNDECIDED;
+    if (!tiny(n.a, n.b)) {
+        ray_hit_kind_t k = refine(c, n.a, n.b, sa, n.ga, n.dga, n.gb, n.dgb, res);
+        if (proven)
+            res->kind = RAY_HIT_ROOT;
+        return proven ? RAY_HIT_ROOT : (int)k;
+    }
+    int kind = proven || sb == -sa ? RAY_HIT_ROOT : RAY_HIT_ZERO;
+    return hit(res, (ray_hit_kind_t)kind, sb == S_ZERO ? n.b : 0.5 * n.a + 0.5 * n.b, n.a, n.b);
+}
+
+/* ---- Alefeld–Hansen extended division -----------------------------------------------------------
+ * N(T) = m - [g(m)] / G'(T) with 0 ∈ G'(T) = [d1, d2] and 0 ∉ [g(m)] = [c1, c2]:
+ * with c the bound of [g(m)] nearest 0, d > 0 gives c/d2 and d < 0 gives c/d1,
+ * so N ∩ T is at most two segments: [a, m - c/d2] and [m - c/d1, b] for c > 0
+ * (mirrored for c < 0), each inside one half of T.  Returns the count (0..2),
+ * left first. */
+static int ah_pieces(const node_t *n, iv_t gmx, double lo[2], double hi[2])
+{
+    double cc = gmx.lo > 0 ? gmx.lo : gmx.hi;
+    double d1 = n->Gp.lo, d2 = n->Gp.hi;
+    iv_t M = iv_point(n->m), C = iv_point(cc);
+    int have_left = 0, have_right = 0;
+    double u = -INFINITY, v = INFINITY;
+    /* positive d: quotient c/d2 */
+    if (d2 > 0) {
+        iv_t q = iv_sub(M, iv_div(C, iv_point(d2)));
+        if (cc > 0)
+            have_left = 1, u = fmax(u, q.hi);
+        else
+            have_right = 1, v = fmin(v, q.lo);
+    }
+    if (d1 < 0) {
+        iv_t q = iv_sub(M, iv_div(C, iv_point(d1)));
+        if (cc > 0)
+            have_right = 1, v = fmin(v, q.lo);
+        else
+            have_left = 1, u = fmax(u, q.hi);
+    }
+    int k = 0;
+    if (have_left && have_right && u >= v) { /* rounding closed the gap */
+        lo[0] = n->a, hi[0] = n->b;
+        return 1;
+    }
+    if (have_left && u >= n->a)
+        lo[k] = n->a, hi[k] = fmin(u, n->b), k++;
+    if (have_right && v <= n->b)
+        lo[k] = fmax(v, n->a), hi[k] = n->b, k++;
+    return k;
+}
+
+/* ---- the search ------------------------------------------------------------------------------------- */
+
+/* A certified sign change between the ends (or 0 held at b): a root in T. */
+static int proven(const node_t *n)
+{
+    int sa = sgn(n->ga), sb = sgn(n->gb);
+    return is_sign(sa) && (sb == -sa || sb == S_ZERO);
+}
+
+typedef struct search {
+    ray_method_t m;
+    double tol;
+    node_t stack[STACK_MAX];
+    int sp;
+} search_t;
+
+static void push(search_t *S, const node_t *n) { S->stack[S->sp++] = *n; }
+
+/* One node of the search: RAY_MISS when it holds no hit (its children, if
+ * any, pushed), else the hit in res. */
+static ray_hit_kind_t step(ctx_t *c, search_t *S, const node_t *np, ray_result_t *res)
+{
+    node_t n = *np;
+    const ray_method_t m = S->m;
+    int sa = sgn(n.ga), sb = sgn(n.gb);
+    int at_tol = n.b - n.a <= S->tol;
+    int left_only = 0;
+
+    if (m == RAY_MRFRO || m == RAY_MRFRO_NEWTON) {
+        /* MRF's rules: a certified sign change (or 0 held at b) proves a root in
+         * T, and then no inclusion test is needed */
+        if (sa == S_ZERO)
+            return hit(res, RAY_HIT_ZERO, n.a, n.a, n.a);
+        if (!proven(&n)) {
+            if (excluded(&n))
+                return RAY_MISS;
+            if (m == RAY_MRFRO_NEWTON && monotone(&n) && is_sign(sa) && is_sign(sb))
+                return RAY_MISS; /* monotone, same signs at both ends */
+            if (at_tol)
+                return hit(res, RAY_HIT_TANGENT, n.m, n.a, n.b);
+        } else {
+            if (m == RAY_MRFRO_NEWTON && monotone(&n)) {
+                int k = newton_case(c, &n, res);
+                if (k != UNDECIDED)
+                    return (ray_hit_kind_t)k;
+                sa = sgn(n.ga), sb = sgn(n.gb); /* n shrunk; its sign change stays */
+            }
+            if (tiny(n.a, n.b))
+                return hit(res, sb == -sa ? RAY_HIT_ROOT : RAY_HIT_ZERO,
+                           sb == S_ZERO ? n.b : n.m, n.a, n.b);
+            /* the first root lies in the left half when the sign flips there */
+            int sm = sgn(n.gm);
+            left_only = sm == -sa || sm == S_ZERO;
+        }
+    } else {
+        if (m == RAY_LIPSCHITZ ? lipschitz_excluded(&n) : excluded(&n))
+            return RAY_MISS;
+        if (monotone(&n)) {
+            const int newtonish = m == RAY_NEWTON || m == RAY_NEWTON_AH;
+            if (newtonish) {
+                int k = newton_case(c, &n, res);
+                if (k != UNDECIDED)
+                    return (ray_hit_kind_t)k;
+                sa = sgn(n.ga), sb = sgn(n.gb), at_tol = n.b - n.a <= S->tol;
+            } else if (sa != S_UNDEF && sb != S_UNDEF) {
+                return monotone_case(c, &n, res);
+            }
+            /* f undefined where a sign was needed: bisect */
+        }
+        if (sa == S_ZERO && at_tol)
+            return hit(res, RAY_HIT_ZERO, n.a, n.a, n.a);
+        if (at_tol)
+            return hit(res, proven(&n) && sb != S_ZERO ? RAY_HIT_ROOT : RAY_HIT_TANGENT, n.m,
+                       n.a, n.b);
+        if (m == RAY_NEWTON_AH) {
+            iv_t gmx = iv_add(n.gm, n.R);
+            if (is_sign(sgn(gmx)) && !iv_is_empty(n.Gp)) {
+                double lo[2], hi[2];
+                int np = ah_pieces(&n, gmx, lo, hi);
+                if (np == 0)
+                    return RAY_MISS;
+                if (np == 2 || hi[0] - lo[0] <= 0.75 * (n.b - n.a)) {
+                    node_t p[2];
+                    for (int j = 0; j < np; j++)
+                        node_init(&p[j], lo[j], hi[j]);
+                    eval_full(c, p, np);
+                    for (int j = np - 1; j >= 0; j--)
+                        push(S, &p[j]);
+                    return RAY_MISS;
+                }
+            }
+            /* 0 ∈ g(m), or no gain: bisect */
+        }
+    }
+    node_t l, r;
+    eval_halves(c, &n, &l, &r);
+    if (!left_only)
+        push(S, &r);
+    push(S, &l);
+    return RAY_MISS;
+}
+
+/* The left-first search.  One refinement of the tangent rule: a segment that
+ * reaches the tolerance undecided is set aside, and the search goes on over
+ * the next tol of the ray.  A root found there is the hit (certified: the
+ * first root is certified to lie in [t_lo, t], at most about 2 tol wide);
+ * else the set-aside segment is (RAY_HIT_TANGENT).  Without this, mrfro,
+ * whose natural inclusion cannot exclude a neighbour closer to a root than
+ * its overestimation, would end most of its searches on such a neighbour. */
+static ray_hit_kind_t search(ctx_t *c, ray_method_t m, const ray_opts_t *opts, double t0,
+                             double t1, ray_result_t *res)
+{
+    double scale = fmax(fabs(t0), fabs(t1));
+    double tol_rel = opts->tol_rel > 0 ? opts->tol_rel : 0x1p-44;
+    long budget = opts->max_nodes > 0 ? opts->max_nodes : 100000;
+    search_t S;
+    S.m = m;
+    S.tol = fmax(tol_rel * scale, 8.0 * ulp(scale));
+    S.sp = 0;
+    node_t root;
+    node_init(&root, t0, t1);
+    eval_full(c, &root, 1);
+    push(&S, &root);
+
+    node_t pending = root;
+    int have_pending = 0;
+    ray_hit_kind_t k = RAY_MISS;
+    while (S.sp > 0) {
+        node_t n = S.stack[--S.sp];
+        if (have_pending && n.a > pending.b + 1024 * S.tol)
+            break;
+        c->nodes++;
+        if ((long)c->nodes > budget || S.sp + 2 > STACK_MAX) {
+            k = hit(res, RAY_HIT_BUDGET, n.a, n.a, n.b);
+            break;
+        }
+        k = step(c, &S, &n, res);
+        if (k == RAY_HIT_TANGENT) {
+            if (!have_pending)
+                pending = n, have_pending = 1;
+            k = res->kind = RAY_MISS;
+            res->t = res->t_lo = res->t_hi = NAN;
+            continue;
+        }
+        if (k != RAY_MISS)
+            break;
+    }
+    if (have_pending) {
+        if (k != RAY_MISS && k != RAY_HIT_BUDGET && res->t <= pending.b + 1024 * S.tol)
+            res->t_lo = pending.a;
+        else
+            k = hit(res, RAY_HIT_TANGENT, pending.m, pending.a, pending.b);
+    }
+    return k;
+}
+
+/* ---- sampling (not certified) ----------------------------------------------------------------------- */
+
+static void point_value(ctx_t *c, int n, const double *t, double *g)
+{
+    double x[NL], y[NL], z[NL];
+    for (int k = 0; k < n; k++) {
+        double p[3];
+        ray_point(c->o, c->d, t[k], p);
+        x[k] = p[0], y[k] = p[1], z[k] = p[2];
+    }
+    tape_eval_point(c->tape, c->ws, (size_t)n, x, y, z, g);
+    c->evals++;
+}
+
+/* Bisection with plain double evaluations, seven interior points per call. */
+static ray_hit_kind_t sample_bisect(ctx_t *c, double a, double b, double ga, ray_result_t *res)
+{
+    while (!tiny(a, b)) {
+        double t[NL - 1], g[NL - 1];
+        int n = 0;
+        for (int j = 1; j < NL; j++) {
+            double tj = a + (b - a) * ((double)j / NL);
+            if (tj > a && tj < b && (n == 0 || tj > t[n - 1]))
+                t[n++] = tj;
+        }
+        if (n == 0)
+            break;
+        point_value(c, n, t, g);
+        double na = a, nb = b;
+        int found = 0;
+        for (int j = 0; j < n && !found; j++) {
+            if (g[j] == 0)
+                return hit(res, RAY_HIT_ROOT, t[j], t[j], t[j]);
+            if (g[j] != g[j])
+                continue;
+            if ((g[j] < 0) != (ga < 0))
+                nb = t[j], found = 1;
+            else
+                na = t[j];
+        }
+        a = na, b = nb;
+    }
+    return hit(res, RAY_HIT_ROOT, 0.5 * a + 0.5 * b, a, b);
+}
+
+static ray_hit_kind_t sampling(ctx_t *c, const ray_opts_t *opts, double t0, double t1,
+                               ray_result_t *res)
+{
+    double len = t1 - t0;
+    double step = opts->sample_step > 0 ? opts->sample_step : len / 1000;
+    double nd = step > 0 ? ceil(len / step) : 1;
+    long n = nd < 1 ? 1 : nd > 1e8 ? 100000000L : (long)nd;
+    double prev_t = NAN, prev_g = NAN;
+    for (long base = 0; base <= n; base += NL) {
+        double t[NL], g[NL];
+        int cnt = 0;
+        for (long k = base; k <= n && cnt < NL; k++)
+            t[cnt++] = k == n ? t1 : t0 + len * ((double)k / (double)n);
+        point_value(c, cnt, t, g);
+        for (int j = 0; j < cnt; j++) {
+            if (g[j] == 0)
+                return hit(res, RAY_HIT_ROOT, t[j], t[j], t[j]);
+            if (g[j] != g[j])
+                continue;
+            if (prev_g == prev_g && (prev_g < 0) != (g[j] < 0))
+                return sample_bisect(c, prev_t, t[j], prev_g, res);
+            prev_t = t[j], prev_g = g[j];
+        }
+    }
+    return RAY_MISS;
+}
+
+/* ---- entry ------------------------------------------------------------------------------------------------ */
+
+ray_hit_kind_t ray_find_root(const tape_t *tape, tape_ws_t *ws, ray_method_t m,
+                             const ray_opts_t *opts, const double o[3], const double d[3],
+                             double t0, double t1, ray_result_t *res)
+{
+    res->kind = RAY_MISS;
+    res->t = res->t_lo = res->t_hi = NAN;
+    res->evals = res->nodes = 0;
+    ray_opts_t def;
+    if (!opts) {
+        ray_opts_default(&def);
+        opts = &def;
+    }
+    if ((unsigned)m >= RAY_METHOD_COUNT || !(t0 <= t1) || !isfinite(t0) || !isfinite(t1))
+        return RAY_MISS;
+    for (int i = 0; i < 3; i++)
+        if (!isfinite(o[i]) || !isfinite(d[i]))
+            return RAY_MISS;
+    const int deriv = m != RAY_MRFRO && m != RAY_SAMPLING;
+    ctx_t c = {tape, ws, o, d, deriv, deriv && m != RAY_LIPSCHITZ, 0, 0};
+    ray_hit_kind_t k = m == RAY_SAMPLING ? sampling(&c, opts, t0, t1, res)
+                                         : search(&c, m, opts, t0, t1, res);
+    res->evals = c.evals;
+    res->nodes = c.nodes;
+    return k;
+}

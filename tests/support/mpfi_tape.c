@@ -1,0 +1,364 @@
+/* Test oracle: tape evaluation in MPFI at a point, forward-mode gradient. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "mpfi_tape.h"
+#include "testutil.h"
+
+typedef struct {
+    mpfi_t v, d[3];
+} slot_t;
+
+static void slot_init(slot_t *s)
+{
+    mpfi_init2(s->v, ORACLE_PREC);
+    for (int k = 0; k < 3; k++)
+        mpfi_init2(s->d[k], ORACLE_PREC);
+}
+
+static void slot_clear(slot_t *s)
+{
+    mpfi_clear(s->v);
+    for (int k = 0; k < 3; k++)
+        mpfi_clear(s->d[k]);
+}
+
+static void slot_set(slot_t *o, const slot_t *a)
+{
+    mpfi_set(o->v, a->v);
+    for (int k = 0; k < 3; k++)
+        mpfi_set(o->d[k], a->d[k]);
+}
+
+/* o.d = s * a.d */
+static void scale_grad(slot_t *o, mpfi_t s, const slot_t *a)
+{
+    for (int k = 0; k < 3; k++)
+        mpfi_mul(o->d[k], s, a->d[k]);
+}
+
+/* sign of a - b: -1, +1, or 0 when undecided (a tie: not differentiable) */
+static int compare(mpfi_srcptr a, mpfi_srcptr b, mpfi_ptr tmp)
+{
+    mpfi_sub(tmp, a, b);
+    if (mpfi_is_strictly_neg(tmp))
+        return -1;
+    if (mpfi_is_strictly_pos(tmp))
+        return 1;
+    return 0;
+}
+
+int oracle_eval(const tape_t *t, const double p[3], oracle_const_t which, mpfi_t value,
+                mpfi_t grad[3])
+{
+    slot_t *S = malloc(t->n * sizeof *S);
+    mpfi_t s, u;
+    mpfi_init2(s, ORACLE_PREC);
+    mpfi_init2(u, ORACLE_PREC);
+    int bad = 0;
+    for (uint32_t i = 0; i < t->n && !bad; i++) {
+        const tape_clause_t *c = &t->clauses[i];
+        slot_t *o = &S[i];
+        slot_init(o);
+        const slot_t *a = &S[c->a], *b = &S[c->b];
+        for (int k = 0; k < 3; k++)
+            mpfi_set_ui(o->d[k], 0);
+        switch ((tape_op_t)c->op) {
+        case TAPE_CONST:
+            mpfi_set_d(o->v, which == ORACLE_CONST_LO ? c->c.lo : c->c.hi);
+            break;
+        case TAPE_X:
+        case TAPE_Y:
+        case TAPE_Z: {
+            int k = (int)c->op - TAPE_X;
+            mpfi_set_d(o->v, p[k]);
+            mpfi_set_ui(o->d[k], 1);
+            break;
+        }
+        case TAPE_NEG:
+            mpfi_neg(o->v, a->v);
+            for (int k = 0; k < 3; k++)
+                mpfi_neg(o->d[k], a->d[k]);
+            break;
+        case TAPE_SQR:
+            mpfi_sqr(o->v, a->v);
+            mpfi_mul_ui(s, a->v, 2);
+            scale_grad(o, s, a);
+            break;
+        case TAPE_POWI: {
+            long n = (long)c->c.lo;
+            /* x^n by repeated multiplication; n < 0 as 1/x^-n */
+            unsigned long m = (unsigned long)(n < 0 ? -n : n);
+            mpfi_set_ui(u, 1);
+            for (unsigned long j = 0; j + 1 < m; j++)
+                mpfi_mul(u, u, a->v); /* u = x^(m-1) */
+            mpfi_mul(o->v, u, a->v);  /* x^m */
+            if (n < 0) {
+                if (mpfi_has_zero(a->v)) {
+                    bad = 1;
+                    break;
+                }
+                /* d/dx x^-m = -m x^(-m-1) = -m x^(m-1) / (x^m)^2 */
+                mpfi_sqr(s, o->v);
+                mpfi_div(s, u, s);
+                mpfi_mul_si(s, s, -(long)m);
+                mpfi_ui_div(o->v, 1, o->v);
+            } else {
+                mpfi_mul_ui(s, u, m);
+            }
+            scale_grad(o, s, a);
+            break;
+        }
+        case TAPE_POWR: {
+            double r = c->c.lo;
+            if (!mpfi_is_strictly_pos(a->v)) {
+                bad = 1; /* x^r at 0 or below: undefined or not differentiable */
+                break;
+            }
+            mpfi_log(u, a->v);
+            mpfi_mul_d(u, u, r);
+            mpfi_exp(o->v, u);
+            mpfi_div(s, o->v, a->v);
+            mpfi_mul_d(s, s, r);
+            scale_grad(o, s, a);
+            break;
+        }
+        case TAPE_SQRT:
+            if (!mpfi_is_strictly_pos(a->v)) {
+                bad = !mpfi_is_zero(a->v) || grad;
+                mpfi_set_ui(o->v, 0);
+                break;
+            }
+            mpfi_sqrt(o->v, a->v);
+            mpfi_mul_ui(s, o->v, 2);
+            mpfi_ui_div(s, 1, s);
+            scale_grad(o, s, a);
+            break;
+        case TAPE_EXP:
+            mpfi_exp(o->v, a->v);
+            scale_grad(o, o->v, a);
+            break;
+        case TAPE_LOG:
+            if (!mpfi_is_strictly_pos(a->v)) {
+                bad = 1;
+                break;
+            }
+            mpfi_log(o->v, a->v);
+            mpfi_ui_div(s, 1, a->v);
+            scale_grad(o, s, a);
+            break;
+        case TAPE_SIN:
+            mpfi_sin(o->v, a->v);
+            mpfi_cos(s, a->v);
+            scale_grad(o, s, a);
+            break;
+        case TAPE_COS:
+            mpfi_cos(o->v, a->v);
+            mpfi_sin(s, a->v);
+            mpfi_neg(s, s);
+            scale_grad(o, s, a);
+            break;
+        case TAPE_TAN:
+            mpfi_tan(o->v, a->v);
+            mpfi_sqr(s, o->v);
+            mpfi_add_ui(s, s, 1);
+            scale_grad(o, s, a);
+            break;
+        case TAPE_ATAN:
+            mpfi_atan(o->v, a->v);
+            mpfi_sqr(s, a->v);
+            mpfi_add_ui(s, s, 1);
+            mpfi_ui_div(s, 1, s);
+            scale_grad(o, s, a);
+            break;
+        case TAPE_ABS:
+            mpfi_abs(o->v, a->v);
+            if (mpfi_is_strictly_pos(a->v))
+                mpfi_set_si(s, 1);
+            else if (mpfi_is_strictly_neg(a->v))
+                mpfi_set_si(s, -1);
+            else {
+                bad = grad != NULL;
+                mpfi_set_ui(s, 0);
+            }
+            scale_grad(o, s, a);
+            break;
+        case TAPE_ADD:
+            mpfi_add(o->v, a->v, b->v);
+            for (int k = 0; k < 3; k++)
+                mpfi_add(o->d[k], a->d[k], b->d[k]);
+            break;
+        case TAPE_SUB:
+            mpfi_sub(o->v, a->v, b->v);
+            for (int k = 0; k < 3; k++)
+                mpfi_sub(o->d[k], a->d[k], b->d[k]);
+            break;
+        case TAPE_MUL:
+            mpfi_mul(o->v, a->v, b->v);
+            for (int k = 0; k < 3; k++) {
+                mpfi_mul(s, a->d[k], b->v);
+                mpfi_mul(u, a->v, b->d[k]);
+                mpfi_add(o->d[k], s, u);
+            }
+            break;
+        case TAPE_DIV:
+            if (mpfi_has_zero(b->v)) {
+                bad = 1;
+                break;
+            }
+            mpfi_div(o->v, a->v, b->v);
+            for (int k = 0; k < 3; k++) {
+                mpfi_mul(s, o->v, b->d[k]);
+                mpfi_sub(s, a->d[k], s);
+                mpfi_div(o->d[k], s, b->v);
+            }
+            break;
+        case TAPE_MIN:
+        case TAPE_MAX: {
+            int cmp = compare(a->v, b->v, s);
+            if (cmp == 0) {
+                /* a tie: the value is either; the gradient is not defined */
+                slot_set(o, a);
+                bad = grad != NULL;
+                break;
+            }
+            int pick_a = (c->op == TAPE_MIN) == (cmp < 0);
+            slot_set(o, pick_a ? a : b);
+            break;
+        }
+        case TAPE_OP_COUNT:
+            bad = 1;
+            break;
+        }
+        if (!bad && mpfi_nan_p(o->v))
+            bad = 1;
+        if (bad) {
+            for (uint32_t j = 0; j <= i; j++)
+                slot_clear(&S[j]);
+            break;
+        }
+    }
+    if (!bad) {
+        mpfi_set(value, S[t->n - 1].v);
+        if (grad)
+            for (int k = 0; k < 3; k++) {
+                mpfi_set(grad[k], S[t->n - 1].d[k]);
+                if (mpfi_nan_p(grad[k]))
+                    bad = 1;
+            }
+        for (uint32_t j = 0; j < t->n; j++)
+            slot_clear(&S[j]);
+    }
+    mpfi_clear(s);
+    mpfi_clear(u);
+    free(S);
+    return bad;
+}
+
+int oracle_contained(mpfi_t v, iv_t d)
+{
+    if (iv_is_empty(d))
+        return 0;
+    mpfr_t l, r;
+    mpfr_init2(l, ORACLE_PREC);
+    mpfr_init2(r, ORACLE_PREC);
+    mpfi_get_left(l, v);
+    mpfi_get_right(r, v);
+    int ok = mpfr_cmp_d(l, d.lo) >= 0 && mpfr_cmp_d(r, d.hi) <= 0;
+    mpfr_clear(l);
+    mpfr_clear(r);
+    return ok;
+}
+
+static double lerp(double a, double b, double u)
+{
+    double v = a + (b - a) * u;
+    return v < a ? a : v > b ? b : v;
+}
+
+static iv_box_t random_box(const double *box, uint64_t *rng)
+{
+    iv_t r[3];
+    double frac = exp2(-30.0 * tu_uniform(rng));
+    int point = tu_next(rng) % 16 == 0;
+    for (int k = 0; k < 3; k++) {
+        double lo = box[2 * k], hi = box[2 * k + 1];
+        double w = (hi - lo) * frac;
+        double a = lerp(lo, hi - w, tu_uniform(rng));
+        double e = point ? a : fmin(a + w, hi);
+        r[k] = iv_make(a, e < a ? a : e);
+    }
+    iv_box_t b = {r[0], r[1], r[2]};
+    return b;
+}
+
+static double pick(iv_t r, uint64_t *rng)
+{
+    switch (tu_next(rng) % 4) {
+    case 0: return r.lo;
+    case 1: return r.hi;
+    default: return lerp(r.lo, r.hi, tu_uniform(rng));
+    }
+}
+
+int oracle_check_tape(const tape_t *t, const double box[6], long nbox, int points_per_box,
+                      uint64_t *rng, oracle_stats_t *st)
+{
+    memset(st, 0, sizeof *st);
+    tape_ws_t *ws = tape_ws_new(t->n);
+    mpfi_t v, g[3];
+    mpfi_init2(v, ORACLE_PREC);
+    for (int k = 0; k < 3; k++)
+        mpfi_init2(g[k], ORACLE_PREC);
+    enum { BATCH = 13 };
+    int fail = ws == NULL;
+    for (long done = 0; done < nbox && !fail; done += BATCH) {
+        iv_box_t boxes[BATCH];
+        iv_t F[BATCH];
+        iv_grad_t G[BATCH];
+        for (int i = 0; i < BATCH; i++)
+            boxes[i] = random_box(box, rng);
+        tape_eval_interval(t, ws, BATCH, boxes, F);
+        tape_eval_grad(t, ws, BATCH, boxes, G);
+        for (int i = 0; i < BATCH && !fail; i++) {
+            for (int j = 0; j < points_per_box && !fail; j++) {
+                double p[3] = {pick(boxes[i].x, rng), pick(boxes[i].y, rng),
+                               pick(boxes[i].z, rng)};
+                oracle_const_t which = (j & 1) ? ORACLE_CONST_HI : ORACLE_CONST_LO;
+                if (oracle_eval(t, p, which, v, NULL) != 0) {
+                    st->skipped++;
+                    continue;
+                }
+                st->checked++;
+                if (!oracle_contained(v, F[i]) || !oracle_contained(v, G[i].v)) {
+                    mpfr_snprintf(st->failure, sizeof st->failure,
+                                  "f(%.17g, %.17g, %.17g) = %.20RNg not in [%.17g, %.17g]"
+                                  " (grad eval [%.17g, %.17g])",
+                                  p[0], p[1], p[2], &v->left, F[i].lo, F[i].hi, G[i].v.lo,
+                                  G[i].v.hi);
+                    fail = 1;
+                    break;
+                }
+                if (oracle_eval(t, p, which, v, g) != 0)
+                    continue;
+                st->checked_grad++;
+                iv_t d[3] = {G[i].dx, G[i].dy, G[i].dz};
+                for (int k = 0; k < 3 && !fail; k++)
+                    if (!oracle_contained(g[k], d[k])) {
+                        mpfr_snprintf(st->failure, sizeof st->failure,
+                                      "df/d%c(%.17g, %.17g, %.17g) = %.20RNg not in "
+                                      "[%.17g, %.17g]",
+                                      "xyz"[k], p[0], p[1], p[2], &g[k]->left, d[k].lo,
+                                      d[k].hi);
+                        fail = 1;
+                    }
+            }
+        }
+    }
+    mpfi_clear(v);
+    for (int k = 0; k < 3; k++)
+        mpfi_clear(g[k]);
+    tape_ws_free(ws);
+    return fail;
+}

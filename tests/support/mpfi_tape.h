@@ -1,0 +1,45 @@
+/* Test oracle: evaluate a tape at a point with MPFI (256 bits), value and gradient.
+ * Independent of the double evaluators in expr/eval.c: only the tape format is shared. */
+#ifndef IVOCT_TEST_MPFI_TAPE_H
+#define IVOCT_TEST_MPFI_TAPE_H
+
+#include <stdint.h>
+
+#include <mpfi.h>
+
+#include "../../expr/tape.h"
+
+#define ORACLE_PREC 256
+
+/* Which point of each interval constant to use: the tape's constants are
+ * enclosures [lo, hi]; the double evaluator's result must hold f for every
+ * constant value in them, so the oracle checks with each end. */
+typedef enum { ORACLE_CONST_LO, ORACLE_CONST_HI } oracle_const_t;
+
+/* Evaluate f at (x, y, z) exactly given as doubles.  value and grad (grad may
+ * be NULL) must be initialised by the caller.  Returns 0 when f is defined at
+ * the point and, if grad is requested, differentiable with every branch
+ * (min/max/abs) decided; non-zero otherwise (the point is then skipped by
+ * the tests: set-based semantics only speaks of points where f is defined). */
+int oracle_eval(const tape_t *t, const double p[3], oracle_const_t which, mpfi_t value,
+                mpfi_t grad[3]);
+
+/* Does the double interval [lo, hi] contain the MPFI interval v? */
+int oracle_contained(mpfi_t v, iv_t d);
+
+/* The evaluators against the oracle: nbox random sub-boxes of box (sizes from
+ * the whole box down to 2^-30 of it, one in 16 a point box), evaluated in
+ * batches of 13 (not a multiple of TAPE_LANES, to exercise padding) with
+ * tape_eval_interval and tape_eval_grad; points_per_box points in each (ends
+ * and interior), alternately with each end of the interval constants.
+ * Returns 0 when every value and gradient is enclosed, else 1 with a message
+ * in stats->failure. */
+typedef struct {
+    long checked, checked_grad, skipped;
+    char failure[1024];
+} oracle_stats_t;
+
+int oracle_check_tape(const tape_t *t, const double box[6], long nbox, int points_per_box,
+                      uint64_t *rng, oracle_stats_t *stats);
+
+#endif

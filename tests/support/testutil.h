@@ -1,0 +1,36 @@
+/* Helpers shared by the tests: a seeded PRNG and the scene directory. */
+#ifndef IVOCT_TEST_UTIL_H
+#define IVOCT_TEST_UTIL_H
+
+#include <stdint.h>
+
+/* splitmix64: fast, fixed-seed, good enough for test inputs */
+static inline uint64_t tu_next(uint64_t *s)
+{
+    uint64_t z = (*s += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+/* uniform in [0, 1) */
+static inline double tu_uniform(uint64_t *s)
+{
+    return (double)(tu_next(s) >> 11) * 0x1p-53;
+}
+
+/* The seed: IVOCT_SEED from the environment, else the given default. */
+uint64_t tu_seed(uint64_t fallback);
+
+/* Scale factor for iteration counts: IVOCT_TEST_SCALE, else 0.1 in the
+ * sanitizer build (IVOCT_ASAN set), else 1. */
+double tu_scale(void);
+
+/* The source tree: IVOCT_SOURCE_DIR, else ".". */
+const char *tu_source_dir(void);
+
+/* Paths of the scene files (scenes/NAME.ini), sorted; returns the count, *paths malloc'd (free with tu_free_list). */
+int tu_scene_files(char ***paths);
+void tu_free_list(char **list, int n);
+
+#endif

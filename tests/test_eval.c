@@ -1,0 +1,171 @@
+/* The tape evaluators, operation by operation, against the MPFI oracle; and the
+ * properties of batching (a box's result does not depend on its batch). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "../expr/tape.h"
+#include "support/mpfi_tape.h"
+#include "support/testutil.h"
+
+static tape_t *compile(const char *text)
+{
+    tape_t *t = NULL;
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    if (tape_compile(text, &t, &err) != 0) {
+        char buf[1024];
+        fail_msg("cannot compile '%s': %s", text, ivoct_error_format(&err, buf, sizeof buf));
+    }
+    return t;
+}
+
+/* Each expression exercises one operation (or a composition that stresses
+ * it); min_defined is the share of points at which it must be defined for the
+ * check not to be vacuous. */
+static const struct {
+    const char *text;
+    double min_defined;
+} EXPRS[] = {
+    {"x + y", 1}, {"x - y", 1}, {"x * y", 1}, {"x / y", 0.9}, {"-x", 1},
+    {"x^2", 1}, {"x^3", 1}, {"x^4", 1}, {"x^7", 1}, {"x^-1", 0.9}, {"x^-2", 0.9},
+    {"x^-3", 0.9}, {"x^2.5", 0.4}, {"x^-0.5", 0.4}, {"x^y", 0.4}, {"sqrt(x)", 0.4},
+    {"exp(x)", 1}, {"log(x)", 0.4}, {"sin(x)", 1}, {"cos(x)", 1}, {"tan(x)", 1},
+    {"atan(x)", 1}, {"abs(x)", 1}, {"min(x, y)", 1}, {"max(x, y)", 1},
+    {"0.1*x + pi - e", 1}, {"sin(x*y) + cos(z)^2", 1}, {"exp(-(x^2+y^2)) - 0.5", 1},
+    {"sqrt(x^2+y^2+z^2) - 1", 1}, {"abs(x) + abs(y) - min(z, x*y)", 1},
+    {"(x*y - z) / (1 + x^2)", 1}, {"tan(x/3) * atan(y*z)", 1},
+    {"log(1 + x^2) - max(y, -z)", 1}, {"x*y*z - (x+y+z)^3", 1},
+};
+
+static void test_each_operation(void **state)
+{
+    (void)state;
+    static const double boxes[][6] = {
+        {-4, 4, -4, 4, -4, 4},
+        {0.5, 3, -2, 2, 0.25, 1},
+        {-1e3, 1e3, -1e3, 1e3, -1e3, 1e3},
+        {-1e-3, 1e-3, -1e-3, 1e-3, -1e-3, 1e-3},
+        {1e6, 1e6 + 4, -1, 1, 1e15, 1e15 + 1e3},
+    };
+    uint64_t rng = tu_seed(7);
+    long nbox = (long)(2000 * tu_scale());
+    for (size_t e = 0; e < sizeof EXPRS / sizeof EXPRS[0]; e++) {
+        tape_t *t = compile(EXPRS[e].text);
+        long checked = 0, total = 0;
+        for (size_t b = 0; b < sizeof boxes / sizeof boxes[0]; b++) {
+            oracle_stats_t st;
+            if (oracle_check_tape(t, boxes[b], nbox, 2, &rng, &st) != 0)
+                fail_msg("%s on box %zu: %s", EXPRS[e].text, b, st.failure);
+            checked += st.checked;
+            total += st.checked + st.skipped;
+        }
+        printf("%-36s %7ld of %7ld points defined and enclosed\n", EXPRS[e].text, checked,
+               total);
+        /* boxes 1, 4 are positive in x; the rest straddle 0 */
+        assert_true(checked >= EXPRS[e].min_defined * 0.9 * (double)total);
+        tape_free(t);
+    }
+}
+
+/* A box's enclosure does not depend on the batch it is evaluated in. */
+static void test_batches_are_independent(void **state)
+{
+    (void)state;
+    tape_t *t = compile("x^4 + (y^2+z^2)^2 - min(x*y, z) + sqrt(abs(x)) - 2");
+    tape_ws_t *ws = tape_ws_new(t->n);
+    enum { N = 29 };
+    iv_box_t boxes[N];
+    uint64_t rng = 99;
+    for (int i = 0; i < N; i++) {
+        double c[3], w = tu_uniform(&rng);
+        for (int k = 0; k < 3; k++)
+            c[k] = 4 * tu_uniform(&rng) - 2;
+        boxes[i] = (iv_box_t){{c[0], c[0] + w}, {c[1], c[1] + w}, {c[2], c[2] + w}};
+    }
+    iv_t all[N];
+    iv_grad_t gall[N];
+    double px[N], py[N], pz[N], pall[N];
+    for (int i = 0; i < N; i++)
+        px[i] = boxes[i].x.lo, py[i] = boxes[i].y.lo, pz[i] = boxes[i].z.lo;
+    tape_eval_interval(t, ws, N, boxes, all);
+    tape_eval_grad(t, ws, N, boxes, gall);
+    tape_eval_point(t, ws, N, px, py, pz, pall);
+    for (int i = 0; i < N; i++) {
+        iv_t one;
+        iv_grad_t gone;
+        double pone;
+        tape_eval_interval(t, ws, 1, &boxes[i], &one);
+        tape_eval_grad(t, ws, 1, &boxes[i], &gone);
+        tape_eval_point(t, ws, 1, &px[i], &py[i], &pz[i], &pone);
+        assert_memory_equal(&one, &all[i], sizeof one);
+        assert_memory_equal(&gone, &gall[i], sizeof gone);
+        assert_memory_equal(&pone, &pall[i], sizeof pone);
+        /* the value part of the gradient evaluation is the interval evaluation */
+        assert_memory_equal(&gone.v, &one, sizeof one);
+    }
+    tape_ws_free(ws);
+    tape_free(t);
+}
+
+/* A point box gives a tight enclosure of the point value, holding the
+ * double evaluation. */
+static void test_point_box_is_tight(void **state)
+{
+    (void)state;
+    tape_t *t = compile("4*(x^4 + (y^2+z^2)^2) + 17*x^2*(y^2+z^2) - 20*(x^2+y^2+z^2) + 17");
+    tape_ws_t *ws = tape_ws_new(t->n);
+    uint64_t rng = 5;
+    for (int i = 0; i < 1000; i++) {
+        double p[3];
+        for (int k = 0; k < 3; k++)
+            p[k] = 4 * tu_uniform(&rng) - 2;
+        iv_box_t b = {{p[0], p[0]}, {p[1], p[1]}, {p[2], p[2]}};
+        iv_t r;
+        double v;
+        tape_eval_interval(t, ws, 1, &b, &r);
+        tape_eval_point(t, ws, 1, &p[0], &p[1], &p[2], &v);
+        assert_true(r.lo <= v && v <= r.hi);
+        /* a few dozen roundings of terms of size <= ~700: width well under 1e-11 */
+        assert_true(r.hi - r.lo < 1e-11);
+    }
+    tape_ws_free(ws);
+    tape_free(t);
+}
+
+/* Outside its domain f is empty; partly outside, the defined part is enclosed. */
+static void test_set_based_domains(void **state)
+{
+    (void)state;
+    tape_t *t = compile("sqrt(x) + log(y)");
+    tape_ws_t *ws = tape_ws_new(t->n);
+    iv_box_t none = {{-2, -1}, {1, 2}, {0, 0}};
+    iv_box_t part = {{-2, 4}, {1, 2}, {0, 0}};
+    iv_t r;
+    tape_eval_interval(t, ws, 1, &none, &r);
+    assert_true(iv_is_empty(r));
+    tape_eval_interval(t, ws, 1, &part, &r);
+    assert_false(iv_is_empty(r));
+    assert_true(r.lo <= 0.0 && r.hi >= 2.0 + log(2.0));
+    iv_grad_t g;
+    tape_eval_grad(t, ws, 1, &none, &g);
+    assert_true(iv_is_empty(g.v));
+    tape_ws_free(ws);
+    tape_free(t);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_each_operation),
+        cmocka_unit_test(test_batches_are_independent),
+        cmocka_unit_test(test_point_box_is_tight),
+        cmocka_unit_test(test_set_based_domains),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,135 @@
+/* The octree does not depend on the number of threads (DESIGN.md §3).
+ *
+ * Several scenes (among them the CSG union, whose tapes are pruned per cell,
+ * and the thin shell, pruned through abs) are built through the C API with 1,
+ * 2 and 3 threads (3 > the cores of a small machine: other interleavings) and
+ * twice with 2; each tree is saved with oct_save and the files must be
+ * byte-identical.  The statistics that do not measure time or memory must
+ * agree too.  The CLI side (ivoct build --threads 1 / 2, compared with cmp)
+ * is in tests/test_build_cli.sh. */
+#define _POSIX_C_SOURCE 200809L
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "../octree/octree.h"
+#include "../scene/scene.h"
+#include "support/testutil.h"
+
+static const char *const SCENES[] = {
+    "sphere", "gumdrop", "horned-cube", "csg-64-spheres", "thin-shell", "crosscap", "blobs",
+    "steiner-roman",
+};
+
+static int asan(void)
+{
+    const char *s = getenv("IVOCT_ASAN");
+    return s && *s && strcmp(s, "0") != 0;
+}
+
+static unsigned char *read_all(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    size_t cap = 1 << 16;
+    unsigned char *p = malloc(cap);
+    assert_non_null(p);
+    *n = 0;
+    size_t got;
+    while ((got = fread(p + *n, 1, cap - *n, f)) > 0) {
+        *n += got;
+        if (*n == cap) {
+            cap *= 2;
+            p = realloc(p, cap);
+            assert_non_null(p);
+        }
+    }
+    fclose(f);
+    return p;
+}
+
+/* The statistics that must not depend on the thread count. */
+static void same_counts(const oct_stats_t *a, const oct_stats_t *b)
+{
+    assert_int_equal(a->cells_visited, b->cells_visited);
+    assert_int_equal(a->split, b->split);
+    assert_int_equal(a->decided_interval, b->decided_interval);
+    assert_int_equal(a->decided_lipschitz, b->decided_lipschitz);
+    assert_int_equal(a->decided_ilie, b->decided_ilie);
+    assert_int_equal(a->decided_refine, b->decided_refine);
+    assert_int_equal(a->decided_max_depth, b->decided_max_depth);
+    assert_int_equal(a->tape_clauses_evaluated, b->tape_clauses_evaluated);
+    assert_memory_equal(a->leaves_by_depth, b->leaves_by_depth, sizeof a->leaves_by_depth);
+    assert_memory_equal(a->cells_by_depth, b->cells_by_depth, sizeof a->cells_by_depth);
+    assert_memory_equal(a->split_by_depth, b->split_by_depth, sizeof a->split_by_depth);
+    assert_memory_equal(a->tape_length_sum_by_depth, b->tape_length_sum_by_depth,
+                        sizeof a->tape_length_sum_by_depth);
+    assert_true(a->max_error_bound == b->max_error_bound);
+}
+
+static void test_threads(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/ivoct-determinism-XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    int depth = asan() ? 5 : 6;
+    static const int runs[] = {1, 2, 3, 2};
+    for (size_t i = 0; i < sizeof SCENES / sizeof *SCENES; i++) {
+        char path[4096];
+        snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), SCENES[i]);
+        scene_t s;
+        ivoct_error_t err;
+        ivoct_error_clear(&err);
+        if (scene_load(path, &s, &err) != 0)
+            fail_msg("cannot load %s: %s", path, err.msg);
+        oct_source_t src = {s.name, s.n_lets, s.let_names, s.let_texts, s.f_text};
+        unsigned char *first = NULL;
+        size_t first_n = 0;
+        oct_stats_t first_st;
+        for (size_t r = 0; r < sizeof runs / sizeof *runs; r++) {
+            oct_params_t p = {.depth = depth, .tests = s.tests, .threads = runs[r]};
+            oct_tree_t *t;
+            if (oct_build(s.tape, s.box, &p, &t, &err) != 0)
+                fail_msg("%s: oct_build: %s", SCENES[i], err.msg);
+            assert_int_equal(t->stats.threads, runs[r]);
+            char out[4200];
+            snprintf(out, sizeof out, "%s/%s-%zu.ivo", dir, SCENES[i], r);
+            if (oct_save(t, &src, out, &err) != 0)
+                fail_msg("oct_save %s: %s", out, err.msg);
+            size_t n;
+            unsigned char *bytes = read_all(out, &n);
+            if (!first) {
+                first = bytes, first_n = n, first_st = t->stats;
+                printf("%-16s depth %d: %8u leaves, %9llu cells, %8zu bytes", SCENES[i], depth,
+                       t->n_leaves, (unsigned long long)t->stats.cells_visited, n);
+            } else {
+                if (n != first_n || memcmp(bytes, first, n) != 0)
+                    fail_msg("%s: the tree built with %d threads differs from the one with %d",
+                             SCENES[i], runs[r], runs[0]);
+                same_counts(&first_st, &t->stats);
+                free(bytes);
+            }
+            remove(out);
+            oct_free(t);
+        }
+        printf(" - identical for 1, 2, 3, 2 threads\n");
+        free(first);
+        scene_free(&s);
+    }
+    rmdir(dir);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_threads),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

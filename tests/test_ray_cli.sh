@@ -1,0 +1,241 @@
+#!/usr/bin/env bash
+# `ivoct render` from the outside: exit codes and one-line messages, outputs
+# complete or absent (never partial), byte-identical PNG and .vti for 1 and 2
+# threads, the stats JSON, the PNG and .vti contents, turntable frame names.
+#
+# Needs IVOCT_BIN (the CLI) and IVOCT_SOURCE_DIR (the source tree), as set by
+# ctest; /usr/bin/python3 reads the JSON, PNG and .vti outputs.
+set -u
+
+BIN=${IVOCT_BIN:?IVOCT_BIN must name the ivoct binary}
+SRC=${IVOCT_SOURCE_DIR:-.}
+PY=/usr/bin/python3
+SCENES=$SRC/scenes
+TMP=$(mktemp -d /tmp/ivoct-render-cli.XXXXXX)
+trap 'rm -rf "$TMP"' EXIT
+
+failures=0
+checks=0
+fail() {
+    echo "FAIL: $*" >&2
+    failures=$((failures + 1))
+}
+ok() { checks=$((checks + 1)); }
+
+# run EXPECTED_EXIT DESCRIPTION -- ARGS...: runs $BIN ARGS, stdout/stderr in $TMP/out, $TMP/err
+run() {
+    local want=$1 what=$2
+    shift 3
+    "$BIN" "$@" >"$TMP/out" 2>"$TMP/err"
+    local got=$?
+    if [ "$got" -ne "$want" ]; then
+        fail "$what: exit $got, expected $want (ivoct $*)"
+        sed 's/^/    stderr: /' "$TMP/err" >&2
+        return 1
+    fi
+    ok
+    return 0
+}
+
+# the error output is exactly one non-empty line
+one_line_error() {
+    local what=$1 lines
+    lines=$(wc -l <"$TMP/err")
+    if [ "$lines" -ne 1 ] || [ ! -s "$TMP/err" ]; then
+        fail "$what: expected a one-line message on stderr, got $lines lines"
+        sed 's/^/    stderr: /' "$TMP/err" >&2
+    else
+        ok
+    fi
+}
+
+# no file (and no temporary) left in $TMP/out-dir
+no_outputs() {
+    local what=$1
+    if [ -n "$(ls -A "$TMP/o" 2>/dev/null)" ]; then
+        fail "$what: files left behind: $(ls -A "$TMP/o" | tr '\n' ' ')"
+    else
+        ok
+    fi
+}
+
+S=$SCENES/sphere.ini
+mkdir -p "$TMP/o"
+
+# ---- help and usage errors -------------------------------------------------------------
+if run 0 "render --help" -- render --help; then
+    for m in mitchell newton newton-ah mrfro mrfro-newton lipschitz sampling --no-octree \
+        --octree --method --size --threads --png --vti --frames --stats --quiet; do
+        grep -q -- "$m" "$TMP/out" && ok || fail "render --help does not mention $m"
+    done
+fi
+grep -q "render" <("$BIN" --help) && ok || fail "ivoct --help does not list render"
+
+run 2 "no scene" -- render && one_line_error "no scene"
+run 2 "unknown method" -- render "$S" --method newtonn --png "$TMP/o/x.png" &&
+    one_line_error "unknown method" && grep -q "newtonn" "$TMP/err" && ok
+for bad in 0x5 5x 5 x5 abc 100000x2 -3x4 5x5x5 "4x 4"; do
+    run 2 "--size $bad" -- render "$S" --size "$bad" --png "$TMP/o/x.png" &&
+        one_line_error "--size $bad"
+done
+run 2 "--threads 0" -- render "$S" --threads 0 && one_line_error "--threads 0"
+run 2 "--frames 0" -- render "$S" --frames 0 && one_line_error "--frames 0"
+run 2 "--frames x" -- render "$S" --frames x && one_line_error "--frames x"
+run 2 "unknown option" -- render "$S" --bogus && one_line_error "unknown option"
+run 2 "option without value" -- render "$S" --png && one_line_error "option without value"
+run 2 "two scenes" -- render "$S" "$S" && one_line_error "two scenes"
+run 2 "--octree" -- render "$S" --octree "$TMP/x.ivo" --png "$TMP/o/x.png" &&
+    one_line_error "--octree" && grep -q "not available yet" "$TMP/err" && ok
+run 2 "--octree and --no-octree" -- render "$S" --octree a.ivo --no-octree &&
+    one_line_error "--octree and --no-octree"
+run 2 "missing scene file" -- render "$TMP/none.ini" --png "$TMP/o/x.png" &&
+    one_line_error "missing scene file"
+printf '[surface]\nf = x^2 +\nbox = -1 1 -1 1 -1 1\n' >"$TMP/bad.ini"
+run 2 "bad scene" -- render "$TMP/bad.ini" --png "$TMP/o/x.png" && one_line_error "bad scene" &&
+    grep -q "bad.ini:2:" "$TMP/err" && ok
+printf '[surface]\nf = x\nbox = -1 1 -1 1 -1 1\n[camera]\neye = 0 0 5\ntarget = 0 0 0\nup = 0 0 1\n' \
+    >"$TMP/badcam.ini"
+run 2 "up parallel to the view" -- render "$TMP/badcam.ini" --png "$TMP/o/x.png" &&
+    one_line_error "bad camera" && grep -q "parallel" "$TMP/err" && ok
+no_outputs "usage errors"
+
+# ---- unwritable outputs: exit 1, nothing written ------------------------------------------
+: >"$TMP/afile"
+run 1 "unwritable --png" -- render "$S" --size 8x8 --png "$TMP/afile/x.png" --vti "$TMP/o/x.vti" &&
+    one_line_error "unwritable --png"
+run 1 "--png in a missing folder" -- render "$S" --size 8x8 --png "$TMP/nodir/x.png" \
+    --stats "$TMP/o/s.json" && one_line_error "missing folder"
+run 1 "unwritable --vti" -- render "$S" --size 8x8 --vti "$TMP/afile/x.vti" --png "$TMP/o/x.png" &&
+    one_line_error "unwritable --vti"
+run 1 "unwritable --stats" -- render "$S" --size 8x8 --stats "$TMP/afile/s.json" \
+    --png "$TMP/o/x.png" && one_line_error "unwritable --stats"
+no_outputs "unwritable outputs"
+if [ -w /dev/full ]; then
+    run 1 "--vti to a full device" -- render "$S" --size 8x8 --vti /dev/full --quiet &&
+        one_line_error "full device"
+fi
+# an existing output is replaced only by a complete file
+echo "old" >"$TMP/o/keep.png"
+run 1 "failure keeps the old file" -- render "$S" --size 8x8 --png "$TMP/o/keep.png" \
+    --vti "$TMP/afile/x.vti"
+[ "$(cat "$TMP/o/keep.png")" = "old" ] && ok || fail "an existing output was touched"
+rm -f "$TMP/o/keep.png"
+
+# ---- 1 and 2 threads: identical files ------------------------------------------------------
+for m in newton-ah mrfro; do
+    run 0 "render 1 thread $m" -- render "$SCENES/chubs.ini" --no-octree --method $m \
+        --size 40x30 --threads 1 --png "$TMP/a.png" --vti "$TMP/a.vti" --stats "$TMP/a.json" --quiet
+    run 0 "render 2 threads $m" -- render "$SCENES/chubs.ini" --no-octree --method $m \
+        --size 40x30 --threads 2 --png "$TMP/b.png" --vti "$TMP/b.vti" --stats "$TMP/b.json" --quiet
+    cmp -s "$TMP/a.png" "$TMP/b.png" && ok || fail "$m: PNG differs between 1 and 2 threads"
+    cmp -s "$TMP/a.vti" "$TMP/b.vti" && ok || fail "$m: .vti differs between 1 and 2 threads"
+    [ ! -s "$TMP/out" ] && ok || fail "--quiet printed on stdout"
+done
+
+# ---- contents -------------------------------------------------------------------------------
+if run 0 "render sphere" -- render "$S" --method mitchell --size 40x30 --png "$TMP/s.png" \
+    --vti "$TMP/s.vti" --stats "$TMP/s.json"; then
+    [ "$(wc -l <"$TMP/out")" -eq 1 ] && ok || fail "expected a one-line summary on stdout"
+    if "$PY" - "$TMP/s.json" "$TMP/s.png" "$TMP/s.vti" <<'EOF'; then ok; else fail "contents (above)"; fi
+import base64, json, math, struct, sys, zlib
+import xml.etree.ElementTree as ET
+
+st = json.load(open(sys.argv[1]))
+want = {"method": "mitchell", "octree": False, "width": 40, "height": 30, "rays": 1200,
+        "leaves_visited": 0, "frames": 1}
+for k, v in want.items():
+    assert st[k] == v, (k, st[k], v)
+for k in ("hits", "time_s", "tape_evals"):
+    assert k in st, k
+assert 0 < st["hits"] < 1200 and st["tape_evals"] > 0 and st["time_s"] >= 0
+
+# PNG: 40x30 RGB; the centre is the lit sphere, a corner the background
+b = open(sys.argv[2], "rb").read()
+assert b[:8] == b"\x89PNG\r\n\x1a\n"
+pos, idat, w, h = 8, b"", None, None
+while pos < len(b):
+    n, = struct.unpack(">I", b[pos:pos + 4]); typ = b[pos + 4:pos + 8]
+    data = b[pos + 8:pos + 8 + n]; pos += 12 + n
+    if typ == b"IHDR":
+        w, h, depth, ctype = struct.unpack(">IIBB", data[:10])
+        assert (w, h, depth, ctype) == (40, 30, 8, 2), (w, h, depth, ctype)
+    elif typ == b"IDAT":
+        idat += data
+raw = zlib.decompress(idat)
+stride = 1 + 3 * w
+rows, prev = [], bytearray(3 * w)
+for r in range(h):
+    f, line = raw[r * stride], bytearray(raw[r * stride + 1:(r + 1) * stride])
+    for i in range(len(line)):
+        a = line[i - 3] if i >= 3 else 0
+        up = prev[i]; c = prev[i - 3] if i >= 3 else 0
+        if f == 1: line[i] = (line[i] + a) & 255
+        elif f == 2: line[i] = (line[i] + up) & 255
+        elif f == 3: line[i] = (line[i] + (a + up) // 2) & 255
+        elif f == 4:
+            p = a + up - c; pa, pb, pc = abs(p - a), abs(p - up), abs(p - c)
+            line[i] = (line[i] + (a if pa <= pb and pa <= pc else up if pb <= pc else c)) & 255
+    rows.append(line); prev = line
+centre = rows[15][3 * 20:3 * 20 + 3]; corner = rows[0][0:3]
+assert sum(centre) > 2 * sum(corner), (centre, corner)
+
+# .vti: parses, the arrays decode to 1200 tuples, t is NaN exactly where hit is 0
+root = ET.parse(sys.argv[3]).getroot()
+assert root.get("type") == "ImageData" and root.get("header_type") == "UInt64"
+img = root.find("ImageData")
+assert img.get("WholeExtent") == "0 39 0 29 0 0"
+fd = {a.get("Name"): a for a in img.find("FieldData")}
+assert set(fd) == {"eye", "target", "up", "fov", "method"}, set(fd)
+assert "".join(chr(int(x)) for x in fd["method"].text.split()[:-1]) == "mitchell"
+arrays = {}
+for a in img.find("Piece").find("PointData"):
+    raw = base64.b64decode("".join(a.text.split()))
+    n, = struct.unpack("<Q", raw[:8])
+    comps = int(a.get("NumberOfComponents"))
+    assert a.get("type") == "Float64" and n == 1200 * comps * 8 == len(raw) - 8, a.get("Name")
+    arrays[a.get("Name")] = struct.unpack("<%dd" % (1200 * comps), raw[8:])
+assert set(arrays) == {"t", "hit", "point", "normal", "dir"}
+hits = 0
+for i in range(1200):
+    hit, t = arrays["hit"][i], arrays["t"][i]
+    assert hit in (0.0, 1.0) and (hit == 0) == math.isnan(t)
+    d = arrays["dir"][3 * i:3 * i + 3]
+    assert abs(sum(x * x for x in d) - 1) < 1e-12
+    if hit:
+        hits += 1
+        p = arrays["point"][3 * i:3 * i + 3]
+        assert abs(sum(x * x for x in p) - 1) < 1e-12    # on the unit sphere
+        nrm = arrays["normal"][3 * i:3 * i + 3]
+        assert all(abs(nrm[k] - p[k]) < 1e-9 for k in range(3))
+assert hits == st["hits"]
+EOF
+fi
+
+# ---- every method, the scene's method, --size overriding the scene ------------------------
+for m in mitchell newton newton-ah mrfro mrfro-newton lipschitz sampling; do
+    run 0 "method $m" -- render "$SCENES/drop.ini" --no-octree --method $m --size 12x10 \
+        --stats "$TMP/m.json" --quiet &&
+        "$PY" -c 'import json,sys; s=json.load(open(sys.argv[1])); assert s["method"]==sys.argv[2] and s["width"]==12 and s["height"]==10 and s["certified"]==(sys.argv[2]!="sampling")' \
+            "$TMP/m.json" $m && ok || fail "stats of --method $m"
+done
+run 0 "the scene's method" -- render "$S" --size 8x8 --stats "$TMP/m.json" --quiet &&
+    "$PY" -c 'import json,sys; assert json.load(open(sys.argv[1]))["method"]=="newton-ah"' \
+        "$TMP/m.json" && ok || fail "the scene's method is not used"
+
+# ---- turntable frames ------------------------------------------------------------------------
+if run 0 "--frames 3" -- render "$S" --size 16x12 --frames 3 --png "$TMP/o/f.png" \
+    --vti "$TMP/o/v" --stats "$TMP/o/f.json" --quiet; then
+    for k in 000 001 002; do
+        [ -s "$TMP/o/f_$k.png" ] && ok || fail "missing frame f_$k.png"
+        [ -s "$TMP/o/v_$k" ] && ok || fail "missing frame v_$k"
+    done
+    [ ! -e "$TMP/o/f.png" ] && ok || fail "--frames also wrote f.png"
+    "$PY" -c 'import json,sys; s=json.load(open(sys.argv[1])); assert s["frames"]==3 and s["rays"]==3*16*12' \
+        "$TMP/o/f.json" && ok || fail "stats of --frames"
+    # the sphere looks the same from every side of a turntable; the directions do not
+    cmp -s "$TMP/o/v_000" "$TMP/o/v_001" && fail "frames 0 and 1 are identical" || ok
+    [ "$(ls "$TMP/o" | wc -l)" -eq 7 ] && ok || fail "unexpected files: $(ls "$TMP/o" | tr '\n' ' ')"
+fi
+
+echo "$checks checks passed, $failures failed"
+[ "$failures" -eq 0 ]

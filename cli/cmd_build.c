@@ -7,6 +7,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "../export/export.h"
 #include "../io/io.h"
 #include "../octree/octree.h"
 #include "../scene/scene.h"
@@ -26,17 +27,24 @@ static const char HELP[] =
     "(f < 0) or outside (f > 0).\n"
     "\n"
     "  --depth N         max depth, 0..21 (scene [octree] depth, default 8)\n"
-    "  --tests LIST      tests of the chain, cheapest first: interval, lipschitz\n"
+    "  --tests LIST      tests of the chain, cheapest first: interval, lipschitz, ilie\n"
     "                    (scene [octree] tests, default interval,lipschitz)\n"
+    "  --refine EPS      with ilie: stop early where the surface is within a slab\n"
+    "                    thinner than EPS and has no fold (certified error bound EPS;\n"
+    "                    scene [octree] refine, default 0 = off)\n"
     "  --threads N       threads (default: all cores); the result is the same for any N\n"
     "  --max-memory SIZE stop with an error past SIZE bytes (suffixes K M G), default none\n"
     "  --cells F.csv     surface leaves, one per line in Morton order:\n"
-    "                    x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi\n"
+    "                    x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi,nx,ny,nz,d_lo,d_hi,error_bound\n"
+    "                    (the slab n.p in [d_lo, d_hi] is empty where a leaf has none)\n"
     "  --save F.ivo      the octree with its scene, for ivoct info and ivoct render\n"
     "  --stats F.json    build statistics (see docs/octree.md)\n"
-    "  --quiet           no summary on stdout, no progress bar\n"
-    "\n"
-    "Not available yet: --refine (needs ILIE), --vtu --htg --vdb --mesh (export).\n";
+    "  --vtu F.vtu       surface leaves as VTK voxels (depth, f_lo, f_hi, error_bound)\n"
+    "  --htg F.htg       the whole octree as a VTK HyperTreeGrid (see docs/paraview.md)\n"
+    "  --vdb F.vdb       OpenVDB grids: surface (the leaves) and sdf (a level set)\n"
+    "  --mesh F          a triangle mesh of the surface (OpenVDB volumeToMesh of sdf);\n"
+    "                    the format follows the name: .vtp, .ply or .obj\n"
+    "  --quiet           no summary on stdout, no progress bar\n";
 
 typedef struct progress {
     double start;
@@ -85,12 +93,20 @@ static int write_cells(const oct_tree_t *t, const char *path, ivoct_error_t *err
     io_file_t f;
     if (io_open(&f, path, err))
         return -1;
-    fputs("x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi\n", f.f);
+    fputs("x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi,nx,ny,nz,d_lo,d_hi,error_bound\n", f.f);
     for (uint32_t i = 0; i < t->n_leaves; i++) {
         const oct_leaf_t *l = &t->leaves[i];
         iv_box_t b = oct_leaf_box(t, l);
-        fprintf(f.f, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d,%.17g,%.17g\n", b.x.lo, b.x.hi,
+        fprintf(f.f, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d,%.17g,%.17g,", b.x.lo, b.x.hi,
                 b.y.lo, b.y.hi, b.z.lo, b.z.hi, l->depth, l->f_lo, l->f_hi);
+        if (oct_leaf_has_slab(t, i)) {
+            const oct_slab_t *sl = &t->slabs[i];
+            fprintf(f.f, "%.17g,%.17g,%.17g,%.17g,%.17g,", sl->n[0], sl->n[1], sl->n[2],
+                    sl->d_lo, sl->d_hi);
+        } else {
+            fputs(",,,,,", f.f);
+        }
+        fprintf(f.f, "%.17g\n", oct_leaf_error_bound(t, i));
     }
     return io_commit(&f, err);
 }
@@ -154,8 +170,48 @@ static int write_stats(const scene_t *s, const oct_tree_t *t, const char *path,
     return io_commit(&f, err);
 }
 
+/* ---- exports (export/): --vtu --htg --vdb --mesh ---------------------------------- */
+typedef struct exports {
+    const char *vtu, *htg, *vdb, *mesh;
+} exports_t;
+
+/* The slot of an export option, NULL when opt is not one. */
+static const char **export_option(exports_t *ex, const char *opt)
+{
+    return !strcmp(opt, "--vtu")  ? &ex->vtu
+           : !strcmp(opt, "--htg") ? &ex->htg
+           : !strcmp(opt, "--vdb") ? &ex->vdb
+           : !strcmp(opt, "--mesh") ? &ex->mesh
+                                    : NULL;
+}
+
+/* Usage errors found before the build: exit 2, nothing built. */
+static int check_exports(const exports_t *ex)
+{
+    if (ex->mesh && !exp_mesh_supported(ex->mesh))
+        return cli_usage_error("build", "--mesh '%s': the name must end in .vtp, .ply or .obj",
+                               ex->mesh);
+    return EXIT_OK;
+}
+
+static int write_exports(const scene_t *s, const oct_tree_t *t, const exports_t *ex,
+                         ivoct_error_t *err)
+{
+    exp_meta_t meta = {s->name, s->f_text, s->n_lets, s->let_names, s->let_texts};
+    if (ex->vtu && exp_vtu(t, &meta, ex->vtu, err))
+        return -1;
+    if (ex->htg && exp_htg(t, s->tape, &meta, ex->htg, err))
+        return -1;
+    if (ex->vdb && exp_vdb(t, s->tape, &meta, ex->vdb, err))
+        return -1;
+    if (ex->mesh && exp_mesh(t, s->tape, &meta, ex->mesh, err))
+        return -1;
+    return 0;
+}
+
 int cmd_build(int argc, char **argv)
 {
+    exports_t ex = {0};
     const char *scene_path = NULL, *cells = NULL, *save = NULL, *stats = NULL;
     const char *tests_text = NULL;
     long depth = -1, threads = 0;
@@ -203,9 +259,9 @@ int cmd_build(int argc, char **argv)
         } else if (!strcmp(a, "--stats")) {
             NEED_VALUE();
             stats = v;
-        } else if (!strcmp(a, "--vtu") || !strcmp(a, "--htg") || !strcmp(a, "--vdb") ||
-                   !strcmp(a, "--mesh")) {
-            return cli_usage_error("build", "%s is not available yet (export is a later issue)", a);
+        } else if (export_option(&ex, a)) {
+            NEED_VALUE();
+            *export_option(&ex, a) = v;
         } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
             quiet = true;
         } else if (a[0] == '-' && a[1] != '\0') {
@@ -219,6 +275,8 @@ int cmd_build(int argc, char **argv)
     }
     if (!scene_path)
         return cli_usage_error("build", "missing the scene file");
+    if (check_exports(&ex))
+        return EXIT_USAGE;
 
     scene_t s;
     ivoct_error_t err;
@@ -236,12 +294,9 @@ int cmd_build(int argc, char **argv)
         rc = cli_usage_error("build", "--tests: %s", err.msg);
         goto out;
     }
-    if (s.tests & SCENE_TEST_ILIE) {
-        rc = cli_usage_error("build", "the ilie test is not available yet");
-        goto out;
-    }
-    if (s.refine > 0) {
-        rc = cli_usage_error("build", "refine is not available yet (needs ILIE); use refine = 0");
+    if (s.refine > 0 && !(s.tests & SCENE_TEST_ILIE)) {
+        rc = cli_usage_error("build", "refine %g needs the ilie test (--tests interval,lipschitz,ilie)",
+                             s.refine);
         goto out;
     }
     if (s.depth > OCT_MAX_DEPTH) {
@@ -253,6 +308,7 @@ int cmd_build(int argc, char **argv)
     oct_params_t p = {
         .depth = s.depth,
         .tests = s.tests,
+        .refine = s.refine,
         .threads = (int)threads,
         .max_memory = max_memory,
         .progress = !quiet && isatty(2) ? show_progress : NULL,
@@ -272,6 +328,8 @@ int cmd_build(int argc, char **argv)
             rc = EXIT_RUNTIME;
     }
     if (rc == EXIT_OK && stats && write_stats(&s, tree, stats, &err))
+        rc = EXIT_RUNTIME;
+    if (rc == EXIT_OK && write_exports(&s, tree, &ex, &err))
         rc = EXIT_RUNTIME;
     if (rc != EXIT_OK) {
         fprintf(stderr, "ivoct build: %s\n", err.msg);

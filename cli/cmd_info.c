@@ -2,14 +2,17 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "../export/export.h"
 #include "../octree/octree.h"
 #include "cli.h"
 
 static const char HELP[] =
     "usage: ivoct info FILE\n"
     "\n"
-    "Summarise an octree file (.ivo): its scene, box, depth, tests, node and leaf\n"
-    "counts and leaves per depth.  A truncated or corrupt file is reported (exit 2).\n";
+    "Summarise a file of ivoct build: an octree (.ivo: its scene, box, depth, tests,\n"
+    "node and leaf counts and leaves per depth), or an export (.vtu, .htg, .vdb, a\n"
+    ".vtp mesh: its scene, cells, leaves per depth, arrays or grids).  Files are\n"
+    "recognised by content.  A truncated or corrupt file is reported (exit 2).\n";
 
 static int info_ivo(const char *path)
 {
@@ -54,6 +57,14 @@ int cmd_info(int argc, char **argv)
     }
     if (argc != 2)
         return cli_usage_error("info", "expects exactly one file");
-    /* the native format is recognised by its magic, whatever the file's name */
-    return info_ivo(argv[1]);
+    /* every format is recognised by its content, whatever the file's name: the
+     * exports first; anything else is read as .ivo, whose loader says what is wrong */
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    int r = exp_info(argv[1], stdout, &err);
+    if (r < 0) {
+        fprintf(stderr, "ivoct info: %s\n", err.msg);
+        return EXIT_USAGE;
+    }
+    return r == 0 ? EXIT_OK : info_ivo(argv[1]);
 }

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "../io/io.h"
+#include "../octree/octree.h"
 #include "../ray/ray.h"
 #include "../scene/scene.h"
 #include "cli.h"
@@ -23,9 +24,14 @@ static const char HELP[] =
     "is certified: a miss means no root on the ray inside the box; see\n"
     "ray/README.md for the methods and the tolerance for double roots.\n"
     "\n"
-    "  --no-octree       search each ray over the whole scene box (the default for\n"
-    "                    now; --octree is not available yet)\n"
-    "  --octree F.ivo    search only the surface leaves of a saved octree\n"
+    "By default the scene's octree is built first (its [octree] depth, tests and\n"
+    "refine, as ivoct build does) and each ray is searched only over the surface\n"
+    "leaves it meets, front to back; the build time is reported apart.\n"
+    "\n"
+    "  --octree F.ivo    use a saved octree (ivoct build --save) instead of building\n"
+    "                    one: it must come from the same f (and let.*) and box as\n"
+    "                    SCENE, which still gives the camera and render settings\n"
+    "  --no-octree       search each ray over the whole scene box\n"
     "  --method M        mitchell | newton | newton-ah | mrfro | mrfro-newton |\n"
     "                    lipschitz | sampling (not certified)\n"
     "                    (scene [render] method, default newton-ah)\n"
@@ -37,7 +43,8 @@ static const char HELP[] =
     "  --frames N        a turntable of N views about the camera's up axis through the\n"
     "                    target, written as F_000.png, F_001.png, ... (default 1: F)\n"
     "  --stats F.json    statistics: method, octree, width, height, rays, hits,\n"
-    "                    time_s, tape_evals, leaves_visited, ... (totals over frames)\n"
+    "                    time_s (render only), tape_evals, leaves_visited,\n"
+    "                    build_time_s (when built here), ... (totals over frames)\n"
     "  --quiet           no summary on stdout, no progress bar\n";
 
 typedef struct progress {
@@ -165,8 +172,16 @@ static int probe_output(const char *path, int frames, ivoct_error_t *err)
     return rc;
 }
 
+/* Where the segments came from. */
+typedef struct octree_info {
+    const oct_tree_t *tree; /* NULL: --no-octree */
+    const char *file;       /* --octree F.ivo, else NULL (built here) */
+    double build_time_s;    /* when built here */
+} octree_info_t;
+
 static int write_stats(const char *path, const scene_t *s, ray_method_t method, int width,
-                       int height, int frames, const ray_stats_t *st, ivoct_error_t *err)
+                       int height, int frames, const ray_stats_t *st, const octree_info_t *oi,
+                       ivoct_error_t *err)
 {
     io_file_t f;
     if (io_open(&f, path, err))
@@ -177,19 +192,65 @@ static int write_stats(const char *path, const scene_t *s, ray_method_t method, 
     fputs(",\n  \"method\": ", o);
     cli_json_string(o, ray_method_name(method));
     fprintf(o,
-            ",\n  \"certified\": %s,\n  \"octree\": false,\n  \"width\": %d,\n  \"height\": %d,\n"
+            ",\n  \"certified\": %s,\n  \"octree\": %s,\n  \"width\": %d,\n  \"height\": %d,\n"
             "  \"frames\": %d,\n  \"rays\": %llu,\n  \"hits\": %llu,\n  \"tangent_hits\": %llu,\n"
             "  \"time_s\": ",
-            ray_method_certified(method) ? "true" : "false", width, height, frames,
+            ray_method_certified(method) ? "true" : "false", oi->tree ? "true" : "false", width,
+            height, frames,
             (unsigned long long)st->rays, (unsigned long long)st->hits,
             (unsigned long long)st->tangent_hits);
     cli_json_double(o, st->time_s);
     fprintf(o,
             ",\n  \"tape_evals\": %llu,\n  \"tape_lanes\": %d,\n  \"segments\": %llu,\n"
-            "  \"leaves_visited\": %llu,\n  \"threads\": %d\n}\n",
+            "  \"leaves_visited\": %llu,\n  \"threads\": %d",
             (unsigned long long)st->tape_evals, TAPE_LANES, (unsigned long long)st->segments,
             (unsigned long long)st->leaves, st->threads);
+    if (oi->tree) {
+        const oct_tree_t *t = oi->tree;
+        fputs(",\n  \"octree_source\": ", o);
+        if (oi->file)
+            cli_json_string(o, oi->file);
+        else
+            fputs("\"built\"", o);
+        fprintf(o, ",\n  \"octree_depth\": %d,\n  \"octree_leaves\": %u,\n"
+                   "  \"octree_slabs\": %s",
+                t->depth, t->n_leaves, t->slabs ? "true" : "false");
+        if (!oi->file) {
+            fputs(",\n  \"build_time_s\": ", o);
+            cli_json_double(o, oi->build_time_s);
+        }
+    }
+    fputs("\n}\n", o);
     return io_commit(&f, err);
+}
+
+/* Whether a saved octree was built from this scene's surface: the same box
+ * (bit for bit), the same f text and the same named subexpressions.  On a
+ * mismatch, what differs goes into why. */
+static int same_surface(const scene_t *s, const oct_tree_t *t, const oct_source_t *src,
+                        char *why, size_t n)
+{
+    for (int i = 0; i < 6; i++)
+        if (!(s->box[i] == t->box[i])) {
+            snprintf(why, n, "its box (%.17g %.17g %.17g %.17g %.17g %.17g) is not the scene's",
+                     t->box[0], t->box[1], t->box[2], t->box[3], t->box[4], t->box[5]);
+            return 0;
+        }
+    if (!src->f || strcmp(src->f, s->f_text)) {
+        snprintf(why, n, "its f (%.200s) is not the scene's", src->f ? src->f : "none");
+        return 0;
+    }
+    if (src->n_lets != s->n_lets) {
+        snprintf(why, n, "it has %zu let definitions, the scene %zu", src->n_lets, s->n_lets);
+        return 0;
+    }
+    for (size_t i = 0; i < s->n_lets; i++)
+        if (strcmp(src->let_names[i], s->let_names[i]) ||
+            strcmp(src->let_texts[i], s->let_texts[i])) {
+            snprintf(why, n, "its let.%.100s is not the scene's", src->let_names[i]);
+            return 0;
+        }
+    return 1;
 }
 
 int cmd_render(int argc, char **argv)
@@ -263,11 +324,6 @@ int cmd_render(int argc, char **argv)
                                "unknown method '%s'; expected mitchell, newton, newton-ah, "
                                "mrfro, mrfro-newton, lipschitz or sampling",
                                method_text);
-    if (octree) {
-        fprintf(stderr, "ivoct render: --octree is not available yet (use --no-octree)\n");
-        return EXIT_USAGE;
-    }
-
     scene_t s;
     ivoct_error_t err;
     ivoct_error_clear(&err);
@@ -277,6 +333,8 @@ int cmd_render(int argc, char **argv)
     }
     int rc = EXIT_OK;
     ray_image_t img = {0};
+    oct_tree_t *tree = NULL;
+    octree_info_t oi = {NULL, octree, 0.0};
     if (!method_text && ray_method_parse(s.method, &method)) {
         fprintf(stderr, "ivoct render: %s: unknown method '%s'\n", scene_path, s.method);
         rc = EXIT_USAGE;
@@ -299,6 +357,37 @@ int cmd_render(int argc, char **argv)
             rc = EXIT_RUNTIME;
             goto out;
         }
+    if (octree) {
+        oct_source_t os = {0};
+        if (oct_load(octree, &tree, &os, &err)) {
+            fprintf(stderr, "ivoct render: %s\n", err.msg);
+            rc = EXIT_USAGE;
+            goto out;
+        }
+        char why[512];
+        int same = same_surface(&s, tree, &os, why, sizeof why);
+        oct_source_free(&os);
+        if (!same) {
+            fprintf(stderr, "ivoct render: %s was not built from %s: %s\n", octree, scene_path,
+                    why);
+            rc = EXIT_USAGE;
+            goto out;
+        }
+    } else if (!no_octree) {
+        oct_params_t op = {0};
+        op.depth = s.depth;
+        op.tests = s.tests;
+        op.refine = s.refine;
+        op.threads = (int)threads;
+        double t0 = omp_get_wtime();
+        if (oct_build(s.tape, s.box, &op, &tree, &err)) {
+            fprintf(stderr, "ivoct render: building the octree: %s\n", err.msg);
+            rc = EXIT_RUNTIME;
+            goto out;
+        }
+        oi.build_time_s = omp_get_wtime() - t0;
+    }
+    oi.tree = tree;
     if (ray_image_alloc(&img, s.width, s.height, &err)) {
         fprintf(stderr, "ivoct render: %s\n", err.msg);
         rc = EXIT_RUNTIME;
@@ -306,7 +395,8 @@ int cmd_render(int argc, char **argv)
     }
 
     ray_box_source_t bs;
-    ray_source_t src = ray_box_source(&bs, s.box);
+    ray_octree_source_t trav;
+    ray_source_t src = tree ? ray_octree_source(&trav, tree) : ray_box_source(&bs, s.box);
     ray_render_opts_t ro;
     ray_render_opts_default(&ro);
     ro.method = method;
@@ -354,19 +444,31 @@ int cmd_render(int argc, char **argv)
         }
     }
     if (stats &&
-        write_stats(stats, &s, method, s.width, s.height, (int)frames, &total, &err)) {
+        write_stats(stats, &s, method, s.width, s.height, (int)frames, &total, &oi, &err)) {
         fprintf(stderr, "ivoct render: %s\n", err.msg);
         rc = EXIT_RUNTIME;
         goto out;
     }
-    if (!quiet)
-        printf("%s: %s, %dx%d%s, no octree: %llu hits of %llu rays (%llu tangent), %.3f s, %d "
-               "thread%s\n",
+    if (!quiet) {
+        char how[128];
+        if (!tree)
+            snprintf(how, sizeof how, "no octree");
+        else if (octree)
+            snprintf(how, sizeof how, "octree depth %d (%u leaves, loaded)", tree->depth,
+                     tree->n_leaves);
+        else
+            snprintf(how, sizeof how, "octree depth %d (%u leaves, built in %.3f s)",
+                     tree->depth, tree->n_leaves, oi.build_time_s);
+        printf("%s: %s, %dx%d%s, %s: %llu hits of %llu rays (%llu tangent), %llu leaves "
+               "searched, render %.3f s, %d thread%s\n",
                s.name, ray_method_name(method), s.width, s.height,
-               frames > 1 ? " per frame" : "", (unsigned long long)total.hits,
+               frames > 1 ? " per frame" : "", how, (unsigned long long)total.hits,
                (unsigned long long)total.rays, (unsigned long long)total.tangent_hits,
-               total.time_s, total.threads, total.threads > 1 ? "s" : "");
+               (unsigned long long)total.leaves, total.time_s, total.threads,
+               total.threads > 1 ? "s" : "");
+    }
 out:
+    oct_free(tree);
     ray_image_free(&img);
     scene_free(&s);
     return rc;

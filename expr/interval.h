@@ -137,15 +137,15 @@ static inline iv_t iv_mul(iv_t a, iv_t b)
     double hi = p > q ? p : q, hi2 = r > s ? r : s;
     lo = iv_down(lo < lo2 ? lo : lo2);
     hi = iv_up(hi > hi2 ? hi : hi2);
-    int nonneg = (a.lo >= 0 && b.lo >= 0) | (a.hi <= 0 && b.hi <= 0);
-    int nonpos = (a.lo >= 0 && b.hi <= 0) | (a.hi <= 0 && b.lo >= 0);
+    int nonneg = (a.lo >= 0 && b.lo >= 0) || (a.hi <= 0 && b.hi <= 0);
+    int nonpos = (a.lo >= 0 && b.hi <= 0) || (a.hi <= 0 && b.lo >= 0);
     lo = nonneg && lo < 0 ? 0.0 : lo;
     hi = nonpos && hi > 0 ? -0.0 : hi;
     /* a factor [0,0] makes the product exactly 0 (see iv_add_down) */
-    int zero = (a.lo == 0 && a.hi == 0) | (b.lo == 0 && b.hi == 0);
+    int zero = (a.lo == 0 && a.hi == 0) || (b.lo == 0 && b.hi == 0);
     lo = zero ? 0.0 : lo;
     hi = zero ? 0.0 : hi;
-    int empty = iv_is_empty(a) | iv_is_empty(b);
+    int empty = iv_is_empty(a) || iv_is_empty(b);
     iv_t out = {empty ? NAN : lo, empty ? NAN : hi};
     return out;
 }

@@ -2,6 +2,8 @@
 #include "io.h"
 
 #include <errno.h>
+#include <fcntl.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -12,7 +14,7 @@ int io_open(io_file_t *out, const char *path, ivoct_error_t *err)
     memset(out, 0, sizeof *out);
     size_t n = strlen(path);
     out->path = malloc(n + 1);
-    out->tmp = malloc(n + 16);
+    out->tmp = malloc(n + 48);
     if (!out->path || !out->tmp) {
         io_abort(out);
         ivoct_error_set(err, "cannot write %s: out of memory", path);
@@ -33,9 +35,17 @@ int io_open(io_file_t *out, const char *path, ivoct_error_t *err)
         }
         return 0;
     }
-    /* same folder as the destination, so that rename() is atomic */
-    snprintf(out->tmp, n + 16, "%s.tmp.XXXXXX", path);
-    int fd = mkstemp(out->tmp);
+    /* same folder as the destination, so that rename() is atomic; created
+     * like any output (0666 less the umask), which mkstemp's 0600 would not be */
+    static atomic_uint counter;
+    int fd = -1;
+    for (int attempt = 0; attempt < 100 && fd < 0; attempt++) {
+        snprintf(out->tmp, n + 48, "%s.tmp.%ld.%u", path, (long)getpid(),
+                 atomic_fetch_add(&counter, 1u));
+        fd = open(out->tmp, O_WRONLY | O_CREAT | O_EXCL, 0666);
+        if (fd < 0 && errno != EEXIST)
+            break;
+    }
     if (fd < 0) {
         ivoct_error_set(err, "cannot write %s: %s", path, strerror(errno));
         free(out->tmp);

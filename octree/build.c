@@ -18,6 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../ilie/ilie.h"
 #include "octree.h"
 
 /* Enough subtrees to keep 2..8 threads busy with dynamic scheduling; a fixed
@@ -38,6 +39,7 @@ typedef struct decision {
     iv_t F;           /* enclosure of f over the cell */
     const tape_t *tape; /* SPLIT: the tape for its children */
     int single_use;     /* SPLIT: tape_is_single_use(tape) */
+    oct_slab_t slab;    /* LEAF: its slab (n = 0 when none) */
 } decision_t;
 
 typedef struct build {
@@ -45,6 +47,7 @@ typedef struct build {
     double box[6];
     int max_depth;
     unsigned tests;
+    double refine;
     int choices;                /* the tape has min/max/abs to prune */
     int single_use;             /* the root tape is a single-use expression */
     size_t max_memory;
@@ -56,12 +59,14 @@ typedef struct pool {
     oct_node_t *nodes;
     size_t n, cap;
     oct_leaf_t *leaves;
-    size_t nl, capl;
+    oct_slab_t *slabs; /* parallel to leaves, with the ilie test */
+    size_t nl, capl, caps;
 } pool_t;
 
 typedef struct worker {
     build_t *b;
     tape_ws_t *ws, *ws_centre;
+    ilie_ws_t *ilie_ws;         /* only with the ilie test */
     tape_clause_t *tape_store;  /* (OCT_MAX_DEPTH + 1) * 8 pruned tapes */
     tape_t tapes[OCT_MAX_DEPTH + 1][8];
     uint32_t *scratch;
@@ -111,12 +116,20 @@ static long pool_block(build_t *b, pool_t *p)
     return (long)(p->n - 8);
 }
 
-static long pool_leaf(build_t *b, pool_t *p, cell_t c, iv_t F)
+static long pool_leaf(build_t *b, pool_t *p, cell_t c, const decision_t *d)
 {
+    iv_t F = d->F;
     oct_leaf_t *q = grow(b, p->leaves, &p->capl, p->nl + 1, sizeof *q);
     if (!q)
         return -1;
     p->leaves = q;
+    if (b->tests & OCT_TEST_ILIE) {
+        oct_slab_t *sl = grow(b, p->slabs, &p->caps, p->nl + 1, sizeof *sl);
+        if (!sl)
+            return -1;
+        p->slabs = sl;
+        sl[p->nl] = d->slab;
+    }
     oct_leaf_t *l = &p->leaves[p->nl];
     memset(l, 0, sizeof *l);
     l->code = c.code;
@@ -127,9 +140,11 @@ static long pool_leaf(build_t *b, pool_t *p, cell_t c, iv_t F)
 
 static void pool_free(build_t *b, pool_t *p)
 {
-    account(b, -(ptrdiff_t)(p->cap * sizeof *p->nodes + p->capl * sizeof *p->leaves));
+    account(b, -(ptrdiff_t)(p->cap * sizeof *p->nodes + p->capl * sizeof *p->leaves +
+                            p->caps * sizeof *p->slabs));
     free(p->nodes);
     free(p->leaves);
+    free(p->slabs);
     memset(p, 0, sizeof *p);
 }
 
@@ -145,7 +160,9 @@ static int worker_init(worker_t *w, build_t *b)
     w->scratch = malloc(3 * (size_t)n * sizeof *w->scratch);
     size_t ntapes = (size_t)(OCT_MAX_DEPTH + 1) * 8;
     w->tape_store = b->choices ? malloc(ntapes * n * sizeof *w->tape_store) : NULL;
-    if (!w->ws || !w->ws_centre || !w->scratch || (b->choices && !w->tape_store))
+    w->ilie_ws = (b->tests & OCT_TEST_ILIE) ? ilie_ws_new(n) : NULL;
+    if (!w->ws || !w->ws_centre || !w->scratch || (b->choices && !w->tape_store) ||
+        ((b->tests & OCT_TEST_ILIE) && !w->ilie_ws))
         return -1;
     if (b->choices)
         for (int d = 0; d <= OCT_MAX_DEPTH; d++)
@@ -162,6 +179,7 @@ static void worker_free(worker_t *w)
 {
     tape_ws_free(w->ws);
     tape_ws_free(w->ws_centre);
+    ilie_ws_free(w->ilie_ws);
     free(w->scratch);
     free(w->tape_store);
 }
@@ -194,15 +212,6 @@ static int lipschitz_excludes(const iv_box_t *box, iv_t fc, const double c[3], i
     return 1;
 }
 
-/* The diagonal of a box, rounded up. */
-static double box_diagonal(const iv_box_t *b)
-{
-    iv_t d2 = iv_add(iv_add(iv_sqr(iv_sub(iv_point(b->x.hi), iv_point(b->x.lo))),
-                            iv_sqr(iv_sub(iv_point(b->y.hi), iv_point(b->y.lo)))),
-                     iv_sqr(iv_sub(iv_point(b->z.hi), iv_point(b->z.lo))));
-    return iv_sqrt(d2).hi;
-}
-
 static oct_class_t class_of(iv_t F)
 {
     return iv_is_empty(F) ? OCT_UNDEFINED : F.lo > 0 ? OCT_OUTSIDE : OCT_INSIDE;
@@ -225,6 +234,42 @@ static void children_boxes(const build_t *b, cell_t p, iv_box_t *boxes)
             r[a] = s[a] ? iv_make(mid[a], hi[a]) : iv_make(lo[a], mid[a]);
         boxes[k] = (iv_box_t){r[0], r[1], r[2]};
     }
+}
+
+/* Gradient-adaptive refinement's "no fold" condition: every gradient in G
+ * makes an angle below 60 degrees with the slab's normal a, i.e.
+ * g.a > |g| |a| / 2 for every g in G, checked on the safe side. */
+static int normals_within_60_degrees(const ilie_t *l, iv_grad_t G)
+{
+    iv_t a[3] = {iv_point(l->a[0]), iv_point(l->a[1]), iv_point(l->a[2])};
+    iv_t g[3] = {G.dx, G.dy, G.dz};
+    iv_t dot = iv_add(iv_add(iv_mul(g[0], a[0]), iv_mul(g[1], a[1])), iv_mul(g[2], a[2]));
+    iv_t g2 = {0, 0}, a2 = {0, 0};
+    for (int k = 0; k < 3; k++) {
+        double m = fmax(fabs(g[k].lo), fabs(g[k].hi));
+        g2 = iv_add(g2, iv_sqr(iv_point(m)));
+        a2 = iv_add(a2, iv_sqr(a[k]));
+    }
+    double half = iv_mul(iv_point(0.5), iv_mul(iv_sqrt(g2), iv_sqrt(a2))).hi;
+    return dot.lo > half; /* false on NaN */
+}
+
+/* The slab a leaf keeps: the ILIE's, when it is finite and -- for a leaf at the
+ * max depth -- no thicker than the leaf's diagonal (else the diagonal is the
+ * better bound and the leaf keeps no slab). */
+static void make_slab(const ilie_t *l, const iv_box_t *box, int early, oct_slab_t *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!l)
+        return;
+    double n[3], lo, hi, thick = ilie_thickness(l);
+    ilie_slab(l, n, &lo, &hi);
+    if (!(n[0] || n[1] || n[2]) || !isfinite(lo) || !isfinite(hi) || !isfinite(thick))
+        return;
+    if (!early && thick > oct_box_diagonal(box))
+        return;
+    memcpy(out->n, n, sizeof n);
+    out->d_lo = lo, out->d_hi = hi, out->thickness = thick;
 }
 
 /* Run the chain on m cells (the 8 children of a cell, or the root alone) with
@@ -256,27 +301,65 @@ static void classify(worker_t *w, const tape_t *t, int single_use, const cell_t 
         }
     }
 
-    if ((b->tests & OCT_TEST_LIPSCHITZ) && nopen && !single_use) {
-        iv_box_t ob[8], cb[8];
-        iv_grad_t G[8];
+    /* The gradient over the cell serves the Lipschitz test and the normal
+     * cone of the refinement; computed once, only for cells still open. */
+    int lipschitz = (b->tests & OCT_TEST_LIPSCHITZ) && !single_use;
+    int ilie = (b->tests & OCT_TEST_ILIE) != 0;
+    int refine = ilie && b->refine > 0;
+    iv_grad_t G[8];
+    if (nopen && (lipschitz || refine)) {
+        iv_box_t ob[8];
+        for (int j = 0; j < nopen; j++)
+            ob[j] = boxes[open[j]];
+        tape_eval_grad(t, w->ws, (size_t)nopen, ob, G);
+        st->tape_clauses_evaluated += (uint64_t)nopen * t->n;
+    }
+
+    if (lipschitz && nopen) {
+        iv_box_t cb[8];
         iv_t Fc[8];
         double c[8][3];
         for (int j = 0; j < nopen; j++) {
             const iv_box_t *x = &boxes[open[j]];
-            ob[j] = *x;
             c[j][0] = iv_mid(x->x), c[j][1] = iv_mid(x->y), c[j][2] = iv_mid(x->z);
             cb[j] = (iv_box_t){iv_point(c[j][0]), iv_point(c[j][1]), iv_point(c[j][2])};
         }
-        tape_eval_grad(t, w->ws, (size_t)nopen, ob, G);
         tape_eval_interval(t, w->ws_centre, (size_t)nopen, cb, Fc);
-        st->tape_clauses_evaluated += 2 * (uint64_t)nopen * t->n;
+        st->tape_clauses_evaluated += (uint64_t)nopen * t->n;
         int still = 0;
         for (int j = 0; j < nopen; j++) {
             int k = open[j];
-            if (lipschitz_excludes(&ob[j], Fc[j], c[j], G[j], &out[k].cls)) {
+            if (lipschitz_excludes(&boxes[k], Fc[j], c[j], G[j], &out[k].cls)) {
                 out[k].kind = EMPTY;
                 st->decided_lipschitz++;
             } else {
+                G[still] = G[j];
+                open[still++] = k;
+            }
+        }
+        nopen = still;
+    }
+
+    /* ILIE: the slab misses the cell -> empty; else the slab is kept for the
+     * leaf and decides the refinement.  Even on a single-use tape, where it
+     * cannot exclude more than the interval test, the slab is wanted. */
+    ilie_t L[8];
+    if (ilie && nopen) {
+        iv_box_t ob[8];
+        for (int j = 0; j < nopen; j++)
+            ob[j] = boxes[open[j]];
+        ilie_eval(t, w->ilie_ws, (size_t)nopen, ob, L);
+        st->tape_clauses_evaluated += (uint64_t)nopen * t->n;
+        int still = 0;
+        for (int j = 0; j < nopen; j++) {
+            int k = open[j], sign;
+            if (ilie_excludes_box(&L[j], &boxes[k], &sign)) {
+                out[k].kind = EMPTY;
+                out[k].cls = sign > 0 ? OCT_OUTSIDE : sign < 0 ? OCT_INSIDE : OCT_UNDEFINED;
+                st->decided_ilie++;
+            } else {
+                G[still] = G[j];
+                L[still] = L[j];
                 open[still++] = k;
             }
         }
@@ -286,15 +369,21 @@ static void classify(worker_t *w, const tape_t *t, int single_use, const cell_t 
     for (int j = 0; j < nopen; j++) {
         int k = open[j];
         int depth = cells[k].depth;
-        if (depth == b->max_depth) {
+        int early = refine && depth < b->max_depth && ilie_thickness(&L[j]) < b->refine &&
+                    normals_within_60_degrees(&L[j], G[j]);
+        if (depth == b->max_depth || early) {
             out[k].kind = LEAF;
-            st->decided_max_depth++;
+            if (early)
+                st->decided_refine++;
+            else
+                st->decided_max_depth++;
             st->leaves_by_depth[depth]++;
-            /* a leaf at the max depth certifies only that the surface may pass
-             * through it: its error bound is its diagonal */
-            double diag = box_diagonal(&boxes[k]);
-            if (diag > st->max_error_bound)
-                st->max_error_bound = diag;
+            make_slab(ilie ? &L[j] : NULL, &boxes[k], early, &out[k].slab);
+            double bound = out[k].slab.n[0] || out[k].slab.n[1] || out[k].slab.n[2]
+                               ? out[k].slab.thickness
+                               : oct_box_diagonal(&boxes[k]);
+            if (bound > st->max_error_bound)
+                st->max_error_bound = bound;
         } else {
             out[k].kind = SPLIT;
             if (b->choices) {
@@ -346,7 +435,7 @@ static long build_subtree(worker_t *w, pool_t *p, cell_t cell, const tape_t *t,
         if (dec[k].kind == EMPTY) {
             node = OCT_NODE(OCT_EMPTY, dec[k].cls);
         } else if (dec[k].kind == LEAF) {
-            long leaf = pool_leaf(w->b, p, kids[k], dec[k].F);
+            long leaf = pool_leaf(w->b, p, kids[k], &dec[k]);
             if (leaf < 0)
                 return -1;
             node = OCT_NODE(OCT_LEAF, leaf);
@@ -439,7 +528,7 @@ static int top_phase(worker_t *w, pool_t *top, frontier_t **front, size_t *nfron
         return 0;
     }
     if (dec.kind == LEAF) {
-        long leaf = pool_leaf(b, top, root, dec.F);
+        long leaf = pool_leaf(b, top, root, &dec);
         if (leaf < 0)
             return -1;
         top->nodes[0] = OCT_NODE(OCT_LEAF, leaf);
@@ -472,7 +561,7 @@ static int top_phase(worker_t *w, pool_t *top, frontier_t **front, size_t *nfron
                 if (d8[k].kind == EMPTY) {
                     node = OCT_NODE(OCT_EMPTY, d8[k].cls);
                 } else if (d8[k].kind == LEAF) {
-                    long leaf = pool_leaf(b, top, kids[k], d8[k].F);
+                    long leaf = pool_leaf(b, top, kids[k], &d8[k]);
                     if (leaf < 0) {
                         frontier_free(b, next, nnext);
                         goto fail;
@@ -501,6 +590,7 @@ fail:
  * in Morton order (the order of a depth-first walk with children 0..7). */
 static int assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct_tree_t *tree)
 {
+    int with_slabs = (b->tests & OCT_TEST_ILIE) != 0;
     size_t nn = top->n, nl = top->nl;
     for (size_t i = 0; i < nfront; i++)
         nn += front[i].pool.n, nl += front[i].pool.nl;
@@ -508,18 +598,26 @@ static int assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, o
         atomic_store(&b->failed, 2);
         return -1;
     }
+    size_t ml = nl ? nl : 1;
     oct_node_t *nodes = malloc(nn * sizeof *nodes);
-    oct_leaf_t *staged = malloc((nl ? nl : 1) * sizeof *staged);
-    oct_leaf_t *leaves = malloc((nl ? nl : 1) * sizeof *leaves);
-    if (!nodes || !staged || !leaves) {
-        free(nodes), free(staged), free(leaves);
+    oct_leaf_t *staged = malloc(ml * sizeof *staged), *leaves = malloc(ml * sizeof *leaves);
+    oct_slab_t *staged_slabs = with_slabs ? malloc(ml * sizeof *staged_slabs) : NULL;
+    oct_slab_t *slabs = with_slabs ? malloc(ml * sizeof *slabs) : NULL;
+    if (!nodes || !staged || !leaves || (with_slabs && (!staged_slabs || !slabs))) {
+        free(nodes), free(staged), free(leaves), free(staged_slabs), free(slabs);
         atomic_store(&b->failed, 2);
         return -1;
     }
-    account(b, (ptrdiff_t)(nn * sizeof *nodes + 2 * nl * sizeof *leaves));
+    size_t leaf_bytes = sizeof *leaves + (with_slabs ? sizeof *slabs : 0);
+    account(b, (ptrdiff_t)(nn * sizeof *nodes + 2 * nl * leaf_bytes));
+
+    /* concatenate: the top pool, then each subtree's pool, indices shifted */
     memcpy(nodes, top->nodes, top->n * sizeof *nodes);
-    if (top->nl) /* memcpy from NULL is undefined even for 0 bytes */
+    if (top->nl) { /* memcpy from NULL is undefined even for 0 bytes */
         memcpy(staged, top->leaves, top->nl * sizeof *staged);
+        if (with_slabs)
+            memcpy(staged_slabs, top->slabs, top->nl * sizeof *staged_slabs);
+    }
     size_t on = top->n, ol = top->nl;
     for (size_t i = 0; i < nfront; i++) {
         pool_t *p = &front[i].pool;
@@ -532,13 +630,17 @@ static int assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, o
                 v = OCT_NODE(kind, OCT_NODE_VALUE(v) + ol);
             nodes[on + j] = v;
         }
-        if (p->nl)
+        if (p->nl) {
             memcpy(staged + ol, p->leaves, p->nl * sizeof *staged);
+            if (with_slabs)
+                memcpy(staged_slabs + ol, p->slabs, p->nl * sizeof *staged_slabs);
+        }
         nodes[front[i].slot] = OCT_NODE(OCT_INTERIOR, (size_t)front[i].base + on);
         on += p->n, ol += p->nl;
     }
 
-    /* depth-first, children in order: at most 7 pending siblings per level */
+    /* leaves in Morton order: depth-first, children in order (at most 7
+     * pending siblings per level) */
     uint32_t stack[8 * (OCT_MAX_DEPTH + 2)];
     int sp = 0;
     uint32_t next_leaf = 0;
@@ -548,6 +650,8 @@ static int assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, o
         oct_node_t v = nodes[i];
         if (OCT_NODE_KIND(v) == OCT_LEAF) {
             leaves[next_leaf] = staged[OCT_NODE_VALUE(v)];
+            if (with_slabs)
+                slabs[next_leaf] = staged_slabs[OCT_NODE_VALUE(v)];
             nodes[i] = OCT_NODE(OCT_LEAF, next_leaf++);
         } else if (OCT_NODE_KIND(v) == OCT_INTERIOR) {
             for (int k = 7; k >= 0; k--)
@@ -555,10 +659,12 @@ static int assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, o
         }
     }
     free(staged);
-    account(b, -(ptrdiff_t)(nl * sizeof *leaves));
+    free(staged_slabs);
+    account(b, -(ptrdiff_t)(nl * leaf_bytes));
     tree->nodes = nodes;
     tree->n_nodes = (uint32_t)nn;
     tree->leaves = leaves;
+    tree->slabs = slabs;
     tree->n_leaves = (uint32_t)nl;
     return 0;
 }
@@ -594,6 +700,10 @@ static int check_params(const tape_t *t, const double box[6], const oct_params_t
         ivoct_error_set(err, "depth %d out of range 0..%d", p->depth, OCT_MAX_DEPTH);
         return -1;
     }
+    if (!(p->refine >= 0) || (p->refine > 0 && !(p->tests & OCT_TEST_ILIE))) {
+        ivoct_error_set(err, "refine needs the ilie test and a tolerance >= 0");
+        return -1;
+    }
     for (int k = 0; k < 3; k++)
         if (!isfinite(box[2 * k]) || !isfinite(box[2 * k + 1]) || box[2 * k] > box[2 * k + 1]) {
             ivoct_error_set(err, "box: bad %c range [%g, %g]", "xyz"[k], box[2 * k],
@@ -616,6 +726,7 @@ int oct_build(const tape_t *t, const double box[6], const oct_params_t *params,
     memcpy(b.box, box, sizeof b.box);
     b.max_depth = params->depth;
     b.tests = params->tests;
+    b.refine = params->refine;
     b.choices = tape_has_choices(t);
     b.max_memory = params->max_memory;
     atomic_init(&b.bytes, 0);
@@ -667,6 +778,7 @@ int oct_build(const tape_t *t, const double box[6], const oct_params_t *params,
         memcpy(tree->box, box, sizeof tree->box);
         tree->depth = params->depth;
         tree->tests = params->tests;
+        tree->refine = params->refine;
         for (int i = 0; i < nthreads; i++)
             add_stats(&tree->stats, &workers[i].st);
         tree->stats.threads = nthreads;
@@ -697,5 +809,6 @@ void oct_free(oct_tree_t *tree)
         return;
     free(tree->nodes);
     free(tree->leaves);
+    free(tree->slabs);
     free(tree);
 }

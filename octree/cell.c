@@ -59,3 +59,25 @@ iv_box_t oct_leaf_box(const oct_tree_t *tree, const oct_leaf_t *leaf)
     oct_unmorton(leaf->code, leaf->depth, &ix, &iy, &iz);
     return oct_cell_box(tree->box, leaf->depth, ix, iy, iz);
 }
+
+int oct_leaf_has_slab(const oct_tree_t *tree, uint32_t i)
+{
+    const oct_slab_t *s = tree->slabs ? &tree->slabs[i] : NULL;
+    return s && (s->n[0] != 0 || s->n[1] != 0 || s->n[2] != 0);
+}
+
+double oct_leaf_error_bound(const oct_tree_t *tree, uint32_t i)
+{
+    if (oct_leaf_has_slab(tree, i))
+        return tree->slabs[i].thickness;
+    iv_box_t b = oct_leaf_box(tree, &tree->leaves[i]);
+    return oct_box_diagonal(&b);
+}
+
+double oct_box_diagonal(const iv_box_t *b)
+{
+    iv_t d2 = iv_add(iv_add(iv_sqr(iv_sub(iv_point(b->x.hi), iv_point(b->x.lo))),
+                            iv_sqr(iv_sub(iv_point(b->y.hi), iv_point(b->y.lo)))),
+                     iv_sqr(iv_sub(iv_point(b->z.hi), iv_point(b->z.lo))));
+    return iv_sqrt(d2).hi;
+}

@@ -1,12 +1,13 @@
 /* ivoct — the native octree file (.ivo).
  *
  * Layout, all integers little-endian, doubles as their IEEE bits:
- *   "IVOCTREE"  u32 version (1)
- *   u32 depth  u32 tests  f64 box[6]
+ *   "IVOCTREE"  u32 version (2; version 1 had no refine, slabs)
+ *   u32 depth  u32 tests  f64 refine  u32 has_slabs  f64 box[6]
  *   str name  u32 n_lets  (str let_name  str let_text) * n_lets  str f
  *   u32 n_nodes  u32 n_leaves
  *   u32 node * n_nodes
  *   (u64 code  f64 f_lo  f64 f_hi  u8 depth) * n_leaves
+ *   when has_slabs: (f64 n[3]  f64 d_lo  f64 d_hi  f64 thickness) * n_leaves
  *   u64 checksum: FNV-1a of every byte before it
  * where str = u32 length + bytes.  The reader checks every length against the
  * file size before using it, the checksum, and the tree's structure, so a
@@ -20,7 +21,7 @@
 #include "octree.h"
 
 #define MAGIC "IVOCTREE"
-#define VERSION 1u
+#define VERSION 2u
 #define MAX_FILE ((size_t)1 << 36)
 
 static uint64_t fnv1a(const unsigned char *p, size_t n)
@@ -96,6 +97,8 @@ int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
     put_u32(&b, VERSION);
     put_u32(&b, (uint32_t)tree->depth);
     put_u32(&b, tree->tests);
+    put_f64(&b, tree->refine);
+    put_u32(&b, tree->slabs != NULL);
     for (int k = 0; k < 6; k++)
         put_f64(&b, tree->box[k]);
     put_str(&b, src ? src->name : "");
@@ -115,6 +118,14 @@ int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
         put_f64(&b, l->f_lo);
         put_f64(&b, l->f_hi);
         put(&b, &l->depth, 1);
+    }
+    for (uint32_t i = 0; tree->slabs && i < tree->n_leaves; i++) {
+        const oct_slab_t *sl = &tree->slabs[i];
+        for (int k = 0; k < 3; k++)
+            put_f64(&b, sl->n[k]);
+        put_f64(&b, sl->d_lo);
+        put_f64(&b, sl->d_hi);
+        put_f64(&b, sl->thickness);
     }
     if (!b.oom)
         put_u64(&b, fnv1a(b.p, b.n));
@@ -243,8 +254,8 @@ static const char *check_structure(const oct_tree_t *t)
         uint32_t val = OCT_NODE_VALUE(v);
         switch (OCT_NODE_KIND(v)) {
         case OCT_INTERIOR:
-            if (depth >= t->depth || val <= i || val > t->n_nodes - 8 || (val - 1) % 8 != 0 ||
-                seen[(val - 1) / 8]) {
+            if (nblocks == 0 || depth >= t->depth || val <= i || val > t->n_nodes - 8 ||
+                (val - 1) % 8 != 0 || seen[(val - 1) / 8]) {
                 why = "bad child index";
                 break;
             }
@@ -290,6 +301,14 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
         ivoct_error_set(err, "cannot open %s", path);
         return -1;
     }
+    /* the magic first, so that a device or a huge foreign file is not read whole */
+    char magic8[8];
+    if (fread(magic8, 1, 8, f) != 8 || memcmp(magic8, MAGIC, 8) != 0) {
+        fclose(f);
+        ivoct_error_set(err, "%s: not an ivoct octree file (bad magic)", path);
+        return -1;
+    }
+    rewind(f);
     unsigned char *data = NULL;
     size_t n = 0, cap = 0;
     for (;;) {
@@ -343,6 +362,8 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
     }
     t->depth = (int)get_u32(&r);
     t->tests = get_u32(&r);
+    t->refine = get_f64(&r);
+    uint32_t has_slabs = get_u32(&r);
     for (int k = 0; k < 6; k++)
         t->box[k] = get_f64(&r);
     s.name = get_str(&r);
@@ -366,7 +387,8 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
     t->n_nodes = get_u32(&r);
     t->n_leaves = get_u32(&r);
     if (r.bad || t->depth < 0 || t->depth > OCT_MAX_DEPTH ||
-        (uint64_t)t->n_nodes * 4 + (uint64_t)t->n_leaves * 25 != r.n - r.at) {
+        has_slabs > 1 || !(t->refine >= 0) ||
+        (uint64_t)t->n_nodes * 4 + (uint64_t)t->n_leaves * (25 + 48 * has_slabs) != r.n - r.at) {
         why = "bad header or truncated tree";
         goto fail;
     }
@@ -385,6 +407,21 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
         l->f_hi = get_f64(&r);
         const unsigned char *d = take(&r, 1);
         l->depth = d ? *d : 0;
+    }
+    if (has_slabs) {
+        t->slabs = malloc(((size_t)t->n_leaves + 1) * sizeof *t->slabs);
+        if (!t->slabs) {
+            why = "out of memory";
+            goto fail;
+        }
+        for (uint32_t i = 0; i < t->n_leaves; i++) {
+            oct_slab_t *sl = &t->slabs[i];
+            for (int k = 0; k < 3; k++)
+                sl->n[k] = get_f64(&r);
+            sl->d_lo = get_f64(&r);
+            sl->d_hi = get_f64(&r);
+            sl->thickness = get_f64(&r);
+        }
     }
     if (r.bad) {
         why = "truncated tree";

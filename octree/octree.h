@@ -57,9 +57,20 @@ typedef struct oct_leaf {
     uint8_t pad[7];
 } oct_leaf_t;
 
+/* The ILIE slab of a surface leaf (builds with the ilie test): 48 bytes, in an
+ * array parallel to the leaves. */
+typedef struct oct_slab {
+    double n[3];        /* unit normal (|n| = 1 up to rounding); 0 0 0: the leaf has no slab */
+    double d_lo, d_hi;  /* every point p of the surface in the leaf has d_lo <= n.p <= d_hi */
+    double thickness;   /* certified slab thickness w(J)/|a| (>= d_hi - d_lo up to rounding) */
+} oct_slab_t;
+
 typedef struct oct_params {
     int depth;          /* max depth, 0..OCT_MAX_DEPTH */
     unsigned tests;     /* OCT_TEST_* */
+    double refine;      /* > 0 (needs OCT_TEST_ILIE): a cell whose slab is thinner than
+                           refine and whose normals stay within 60 degrees of the slab's
+                           becomes a leaf before the max depth */
     int threads;        /* <= 0: all cores */
     size_t max_memory;  /* bytes; 0 = no limit */
     /* Called now and then with the fraction done, from one thread at a time. */
@@ -94,6 +105,8 @@ typedef struct oct_tree {
     uint32_t n_nodes;
     oct_leaf_t *leaves;
     uint32_t n_leaves;
+    oct_slab_t *slabs;  /* n_leaves entries when the build ran the ilie test, else NULL */
+    double refine;
     oct_stats_t stats;
 } oct_tree_t;
 
@@ -118,6 +131,19 @@ void oct_unmorton(uint64_t code, int depth, uint32_t *ix, uint32_t *iy, uint32_t
 
 /* The box of a leaf. */
 iv_box_t oct_leaf_box(const oct_tree_t *tree, const oct_leaf_t *leaf);
+
+/* The diagonal of a box, rounded up. */
+double oct_box_diagonal(const iv_box_t *box);
+
+/* Does leaf i carry a slab? */
+int oct_leaf_has_slab(const oct_tree_t *tree, uint32_t i);
+
+/* The certified error bound of leaf i: how far a point of the surface in the
+ * leaf can be from the leaf's approximation of it -- from the mid-plane of its
+ * slab when it has one (the slab thickness; a leaf that stopped early has one
+ * thinner than `refine`), else from any point of the leaf (its diagonal).
+ * Rounded up. */
+double oct_leaf_error_bound(const oct_tree_t *tree, uint32_t i);
 
 /* ---- native file (.ivo) -----------------------------------------------------
  * The scene the tree was built from travels with it so it can be rebuilt or

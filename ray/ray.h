@@ -3,11 +3,13 @@
  * A pinhole camera shoots one primary ray per pixel (through the pixel
  * centre).  Each ray asks an interval source (ray_source_t) for the parameter
  * segments [t_in, t_out] that may hold surface, front to back, and runs a root
- * finder on g(t) = f(o + t·d) over each until the first one reports a hit.
- * Without an octree the source yields one segment: the ray clipped to the
- * scene box (ray_box_source).  The hits are shaded (Lambert + ambient from the
- * normal ∇f/|∇f|) into an RGB image; the per-pixel buffers of DESIGN.md §4
- * (t, hit, point, normal, dir) can be written as a VTK .vti, the image as PNG.
+ * finder on g(t) = f(o + t·d) over each, up to the best hit so far, so the
+ * first root wins.  With an octree (ray_octree_source) the segments are the
+ * surface leaves the ray meets, front to back; without one, a single segment:
+ * the ray clipped to the scene box (ray_box_source).  The hits are shaded
+ * (Lambert + ambient from the normal ∇f/|∇f|) into an RGB image; the per-pixel
+ * buffers of DESIGN.md §4 (t, hit, point, normal, dir) can be written as a VTK
+ * .vti, the image as PNG.
  *
  * Points along a ray.  The point evaluated at parameter t is the rounded
  * ray_point(o, d, t) = fl(o + fl(t·d)) per axis: the certified sign of g at t
@@ -28,6 +30,7 @@
 
 #include "../expr/error.h"
 #include "../expr/tape.h"
+#include "../octree/octree.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -139,20 +142,46 @@ ray_hit_kind_t ray_find_root(const tape_t *tape, tape_ws_t *ws, ray_method_t m,
                              const ray_opts_t *opts, const double o[3], const double d[3],
                              double t0, double t1, ray_result_t *res);
 
+/* The first root over n <= RAY_MAX_SEGMENTS segments [t0[k], t1[k]] of the same
+ * ray, given front to back: the answer of ray_find_root on each in turn until
+ * one hits (the tolerance scale is that of all of them), but in one search
+ * whose first evaluations take two segments per evaluator call (TAPE_LANES
+ * holds both) — the octree's leaves come in runs.  *which (may be NULL): the
+ * first segment that holds the start of the hit's bracket, -1 on a miss; the
+ * segments after it were not searched beyond their first evaluation. */
+#define RAY_MAX_SEGMENTS 8
+ray_hit_kind_t ray_find_root_n(const tape_t *tape, tape_ws_t *ws, ray_method_t m,
+                               const ray_opts_t *opts, const double o[3], const double d[3],
+                               int n, const double *t0, const double *t1, ray_result_t *res,
+                               int *which);
+
 /* ---- interval sources: the seam between ray casting and space subdivision -------- */
 
 typedef struct ray_segment {
-    double t_in, t_out;    /* t_in <= t_out */
-    const tape_t *tape;    /* the tape valid on the segment (e.g. pruned for an octree
-                            * leaf), or NULL for the renderer's tape */
+    double t_in, t_out;    /* out: t_in <= t_out */
+    const tape_t *tape;    /* out: the tape valid on the segment (e.g. pruned for an
+                            * octree leaf), or NULL for the renderer's tape */
+    double t_max;          /* in: the hit found so far on this ray (INFINITY before
+                            * one); only roots before it are still wanted */
+    int64_t leaf;          /* out, informative: the octree leaf (index in
+                            * tree->leaves) of the octree source, -1 for the box
+                            * source; other sources may leave it unset */
 } ray_segment_t;
 
-/* For each ray the renderer calls begin once, then next until it returns 0 or
- * the root finder reports a hit.  Segments must come front to back (t_in
- * non-decreasing, not overlapping but for shared ends).  state points to
- * state_size bytes owned by the renderer (one buffer per thread, reused for
- * every ray; aligned for any type); ctx is shared by all threads, read-only.
- * leaves (may be NULL) counts what the source visited for the statistics. */
+/* For each ray the renderer calls begin once, then next until it returns 0.
+ * Before each call the renderer sets seg->t_max to the smallest hit found so
+ * far (INFINITY before the first), runs the root finder on
+ * [t_in, min(t_out, t_max)] when t_in < t_max, and keeps the smaller hit.
+ * So the answer is the first root whatever the order of the segments, as long
+ * as together they cover every t where the ray may meet the surface.  A
+ * source should yield its segments front to back and return 0 as soon as
+ * nothing left can start before t_max: then the loop ends at the first hit,
+ * save for segments that overlap it by rounding (the octree source).  A
+ * source of disjoint segments may ignore t_max: what follows a hit costs one
+ * call each, no root finding.  state points to state_size bytes owned by the
+ * renderer (one buffer per thread, reused for every ray; aligned for any
+ * type); ctx is shared by all threads, read-only.  leaves (may be NULL)
+ * counts what the source visited for the statistics. */
 typedef struct ray_source {
     void *ctx;
     size_t state_size;
@@ -167,6 +196,25 @@ typedef struct ray_box_source {
 } ray_box_source_t;
 
 ray_source_t ray_box_source(ray_box_source_t *bs, const double box[6]);
+
+/* The octree source: the surface leaves of tree that the ray meets, front to
+ * back.  A parametric traversal (children in order of their entry parameter)
+ * over the closed cells of the tree; empty cells are skipped without
+ * evaluating anything.  A leaf's segment encloses every t where the exact ray
+ * o + t·d (t >= 0) is inside the closed leaf box (plane crossings enclosed
+ * with outward rounding), narrowed, when the leaf has an ILIE slab and
+ * use_slabs is set, to an enclosure of the t where d_lo <= n·(o + t·d) <= d_hi
+ * (a leaf whose slab the ray provably misses is skipped).  Subtrees that
+ * cannot start before seg->t_max are pruned.  *leaves counts the surface
+ * leaves yielded.  os holds the tree (borrowed: it must outlive the source,
+ * and not change while rendering).  The state is sized from tree->depth.  See
+ * ray/README.md, "Octree traversal", for why the first hit is the first root. */
+typedef struct ray_octree_source {
+    const oct_tree_t *tree;
+    int use_slabs;
+} ray_octree_source_t;
+
+ray_source_t ray_octree_source(ray_octree_source_t *os, const oct_tree_t *tree);
 
 /* ---- rendering -------------------------------------------------------------------- */
 

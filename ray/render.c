@@ -35,6 +35,7 @@ static int box_next(const void *ctx, void *state, ray_segment_t *seg, uint64_t *
     seg->t_in = st->t0;
     seg->t_out = st->t1;
     seg->tape = NULL;
+    seg->leaf = -1;
     return 1;
 }
 
@@ -160,6 +161,69 @@ typedef struct counters {
     uint64_t hits, tangent, evals, segments, leaves;
 } counters_t;
 
+/* The first hit along one ray.  Every segment is searched up to the best hit
+ * so far and the smaller hit kept, so the first root wins whatever order the
+ * segments come in (see ray.h); front to back, t_max cuts off all but the
+ * segments that overlap the hit by rounding.  Segments are searched two at a
+ * time (ray_find_root_n: their first evaluations share a tape pass) — an
+ * octree ray often crosses a run of surface leaves before the one that
+ * holds the root.  Those after the one with the hit, if they start before
+ * it, are searched again up to it. */
+#define BATCH 2
+static void trace(const tape_t *tape, tape_ws_t *ws, const ray_source_t *src, void *state,
+                  const ray_render_opts_t *opts, const double eye[3], const double d[3],
+                  ray_result_t *best, counters_t *cnt)
+{
+    ray_segment_t seg, q[BATCH];
+    int nq = 0, more = 1;
+    double t_max = INFINITY; /* the best hit so far */
+    src->begin(src->ctx, state, eye, d);
+    for (;;) {
+        while (more && nq < BATCH) {
+            seg.t_max = t_max;
+            if (!src->next(src->ctx, state, &seg, &cnt->leaves)) {
+                more = 0;
+                break;
+            }
+            if (seg.t_in < t_max)
+                q[nq++] = seg;
+        }
+        if (nq == 0)
+            break;
+        /* a batch shares one tape */
+        int k = 1;
+        while (k < nq && q[k].tape == q[0].tape)
+            k++;
+        double t0[BATCH], t1[BATCH];
+        for (int j = 0; j < k; j++) {
+            t0[j] = q[j].t_in;
+            t1[j] = q[j].t_out < t_max ? q[j].t_out : t_max;
+        }
+        ray_result_t r;
+        int which;
+        cnt->segments += (uint64_t)k;
+        ray_find_root_n(q[0].tape ? q[0].tape : tape, ws, opts->method, &opts->roots, eye, d, k,
+                        t0, t1, &r, &which);
+        cnt->evals += r.evals;
+        int done = k;
+        if (r.kind != RAY_MISS && (best->kind == RAY_MISS || r.t < best->t)) {
+            /* the first root is at or after the smaller bracket start */
+            if (best->kind != RAY_MISS && best->t_lo < r.t_lo)
+                r.t_lo = best->t_lo;
+            *best = r;
+            t_max = r.t;
+            done = which + 1; /* those after it: searched again, up to the hit */
+        }
+        /* keep what is left of the batch and was not searched, if it can
+         * still start before the best hit */
+        int m = 0;
+        for (int j = done; j < nq; j++)
+            if (q[j].t_in < t_max)
+                q[m++] = q[j];
+        nq = m;
+    }
+}
+
 static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *cam,
                         const ray_source_t *src, void *state, const ray_render_opts_t *opts,
                         ray_image_t *img, int tx, int ty, counters_t *cnt)
@@ -176,19 +240,7 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
             double *d = img->dir + 3 * i;
             ray_camera_dir(cam, col, row, d);
             ray_result_t best = {RAY_MISS, NAN, NAN, NAN, 0, 0};
-            ray_segment_t seg;
-            src->begin(src->ctx, state, cam->eye, d);
-            while (src->next(src->ctx, state, &seg, &cnt->leaves)) {
-                ray_result_t r;
-                cnt->segments++;
-                ray_find_root(seg.tape ? seg.tape : tape, ws, opts->method, &opts->roots,
-                              cam->eye, d, seg.t_in, seg.t_out, &r);
-                cnt->evals += r.evals;
-                if (r.kind != RAY_MISS) {
-                    best = r;
-                    break;
-                }
-            }
+            trace(tape, ws, src, state, opts, cam->eye, d, &best, cnt);
             img->t[i] = best.t;
             img->kind[i] = (unsigned char)best.kind;
             img->hit[i] = best.kind != RAY_MISS;

@@ -333,51 +333,146 @@ static ray_hit_kind_t hit(ray_result_t *res, ray_hit_kind_t kind, double t, doub
  * (certified opposite, or holding 0).  The bracket is shrunk to the boundary
  * between the points where sign sa is certified and the rest: the reported hit
  * is the first point, to a few ulps, where the evaluation cannot certify that
- * the surface is still ahead.  Each call evaluates the midpoint (so the bracket
- * at least halves), a Newton estimate x from the end with the smaller |g|, and
- * guards x ± e/16, x ± e/1024 where e is the last Newton correction: once
- * Newton converges quadratically the guards bracket the root and the bracket
- * collapses. */
+ * the surface is still ahead.
+ *
+ * Only the certified signs of interval evaluations at points move a and b, so
+ * where to look can be guessed by any means.  Three phases, cheapest first:
+ *  1. locate: plain double evaluations (tape_eval_point, a small fraction of
+ *     an interval pass) find where the double value of f changes sign —
+ *     Newton from the derivative estimates the caller has, then secant steps
+ *     with guards around each estimate, 8 points a pass;
+ *  2. certify: one interval pass at that point and a ladder of points a few
+ *     ulps before and after it; on a well-conditioned root this ends it;
+ *  3. otherwise (the sign of f is uncertain over more than a few ulps: a
+ *     grazing ray, or the guess was off), interval passes of secant estimates
+ *     with guards, or 7 equally spaced points, until the bracket is 4 ulps. */
+
+/* Phase 1: a guess in (a, b), or NaN.  fa, fb the values at a, b (of
+ * opposite signs, or fb ~ 0); dfa, dfb derivative estimates or NaN. */
+static double locate(ctx_t *c, double a, double b, double fa, double fb, double dfa,
+                     double dfb)
+{
+    if (!(fa > 0 || fa < 0) || !isfinite(fb))
+        return NAN;
+    const int pos = fa > 0;
+    double xprev = NAN;
+    for (int it = 0; it < 16 && !tiny(a, b); it++) {
+        double m = 0.5 * a + 0.5 * b, x = NAN;
+        if (isfinite(dfb) && dfb != 0 && fabs(fb) < fabs(fa))
+            x = b - fb / dfb;
+        else if (isfinite(dfa) && dfa != 0)
+            x = a - fa / dfa;
+        if (!(x > a && x < b) && fb != fa)
+            x = a - fa * ((b - a) / (fb - fa)); /* secant */
+        if (!(x > a && x < b))
+            x = m;
+        double e = isfinite(xprev) ? fabs(x - xprev) : (b - a) / 64;
+        double cand[NL] = {m, x, x - e / 16, x + e / 16, x - e / 1024, x + e / 1024,
+                           x - e / 65536, x + e / 65536};
+        double t[NL], px[NL], py[NL], pz[NL], g[NL];
+        int n = 0;
+        for (int k = 0; k < NL; k++)
+            if (cand[k] > a && cand[k] < b) {
+                double p[3];
+                ray_point(c->o, c->d, cand[k], p);
+                t[n] = cand[k], px[n] = p[0], py[n] = p[1], pz[n] = p[2];
+                n++;
+            }
+        if (n == 0)
+            break;
+        tape_eval_point(c->tape, c->ws, (size_t)n, px, py, pz, g);
+        c->evals++;
+        /* b: the smallest point not of a's sign; a: the largest of a's sign before it */
+        double nb = b, gb = fb, na = a, ga = fa;
+        for (int k = 0; k < n; k++)
+            if (!(g[k] == g[k]) || (g[k] > 0) != pos || g[k] == 0)
+                if (t[k] < nb)
+                    nb = t[k], gb = g[k];
+        for (int k = 0; k < n; k++)
+            if (g[k] == g[k] && g[k] != 0 && (g[k] > 0) == pos && t[k] > na && t[k] < nb)
+                na = t[k], ga = g[k];
+        if (!(gb == gb)) /* f undefined there: the guess is lost */
+            return NAN;
+        a = na, fa = ga, b = nb, fb = gb;
+        dfa = dfb = NAN;
+        xprev = x;
+        if (fb == 0)
+            return b;
+    }
+    return 0.5 * a + 0.5 * b;
+}
+
 static ray_hit_kind_t refine(ctx_t *c, double a, double b, int sa, iv_t ga, double dga,
                              iv_t gb, double dgb, ray_result_t *res)
 {
     int proven = sgn(gb) == -sa;
+    /* Update [a, b] from the interval values at the points of L: b the
+     * smallest point not certified sa, a the largest sa point before it. */
+#define REFINE_UPDATE(L)                                                                   \
+    do {                                                                                   \
+        for (int k_ = 0; k_ < (L).n; k_++) {                                               \
+            int s_ = sgn((L).out[k_].v);                                                   \
+            if (s_ != sa && (L).lo[k_] < b)                                                \
+                b = (L).lo[k_], gb = (L).out[k_].v;                                        \
+            if (s_ == -sa)                                                                 \
+                proven = 1;                                                                \
+        }                                                                                  \
+        for (int k_ = 0; k_ < (L).n; k_++)                                                 \
+            if (sgn((L).out[k_].v) == sa && (L).lo[k_] > a && (L).lo[k_] < b)              \
+                a = (L).lo[k_], ga = (L).out[k_].v;                                        \
+    } while (0)
+
+    if (!tiny(a, b)) {
+        double x = locate(c, a, b, iv_mid(ga), iv_mid(gb), dga, dgb);
+        if (x > a && x < b) {
+            /* phase 2: x and a ladder of ulps around it (sa lies before x) */
+            static const double K[NL] = {-32, -8, -3, -2, -1, 0, 1, 4};
+            double u = ulp(fmax(fabs(a), fabs(b)));
+            lanes_t L = {0};
+            for (int k = 0; k < NL; k++) {
+                double t = x + K[k] * u;
+                if (t > a && t < b)
+                    lane_point(&L, t);
+            }
+            if (L.n) {
+                run(c, &L, 0);
+                REFINE_UPDATE(L);
+            }
+        }
+    }
     double xprev = NAN;
     for (int it = 0; it < 200 && !tiny(a, b); it++) {
-        double m = 0.5 * a + 0.5 * b;
-        double fa = iv_mid(ga), fb = iv_mid(gb), x = NAN;
-        if (isfinite(dga) && dga != 0)
-            x = a - fa / dga;
-        if (sgn(gb) == -sa && isfinite(dgb) && dgb != 0 && fabs(fb) < fabs(fa))
-            x = b - fb / dgb;
-        if (!(x > a && x < b))
-            x = m;
-        double e = isfinite(xprev) ? fabs(x - xprev) : (b - a) / 64;
-        double cand[6] = {m, x, x - e / 16, x + e / 16, x - e / 1024, x + e / 1024};
+        /* phase 3 */
+        double cand[NL];
+        int n = 0;
+        double fa = iv_mid(ga), fb = iv_mid(gb);
+        if (sgn(gb) == -sa && isfinite(fa) && isfinite(fb) && fb != fa) {
+            double x = a - fa * ((b - a) / (fb - fa));
+            if (!(x > a && x < b))
+                x = 0.5 * a + 0.5 * b;
+            double e = isfinite(xprev) ? fabs(x - xprev) : (b - a) / 64;
+            double g[6] = {0.5 * a + 0.5 * b, x, x - e / 16, x + e / 16, x - e / 1024,
+                           x + e / 1024};
+            for (int k = 0; k < 6; k++)
+                cand[n++] = g[k];
+            xprev = x;
+        } else {
+            /* the values tell nothing (b in the band where the sign is
+             * uncertain): 7 equally spaced points, the bracket shrinks 8 times */
+            for (int k = 1; k < NL; k++)
+                cand[n++] = a + (b - a) * ((double)k / NL);
+            xprev = NAN;
+        }
         lanes_t L = {0};
-        for (int k = 0; k < 6; k++)
+        for (int k = 0; k < n; k++)
             if (cand[k] > a && cand[k] < b)
                 lane_point(&L, cand[k]);
-        run(c, &L, 1);
-        /* b: the smallest point not certified sa; a: the largest sa point before it */
-        for (int k = 0; k < L.n; k++) {
-            int s = sgn(L.out[k].v);
-            if (s != sa && L.lo[k] < b) {
-                b = L.lo[k];
-                gb = L.out[k].v;
-                dgb = mid_deriv(c, &L.out[k]);
-            }
-            if (s == -sa)
-                proven = 1;
-        }
-        for (int k = 0; k < L.n; k++)
-            if (sgn(L.out[k].v) == sa && L.lo[k] > a && L.lo[k] < b) {
-                a = L.lo[k];
-                ga = L.out[k].v;
-                dga = mid_deriv(c, &L.out[k]);
-            }
-        xprev = x;
+        if (L.n == 0)
+            break;
+        run(c, &L, 0);
+        REFINE_UPDATE(L);
     }
+#undef REFINE_UPDATE
     double t = sgn(gb) == S_ZERO ? b : 0.5 * a + 0.5 * b;
     return hit(res, proven ? RAY_HIT_ROOT : RAY_HIT_ZERO, t, a, b);
 }
@@ -594,22 +689,28 @@ static ray_hit_kind_t step(ctx_t *c, search_t *S, const node_t *np, ray_result_t
  * else the set-aside segment is (RAY_HIT_TANGENT).  Without this, mrfro,
  * whose natural inclusion cannot exclude a neighbour closer to a root than
  * its overestimation, would end most of its searches on such a neighbour. */
-static ray_hit_kind_t search(ctx_t *c, ray_method_t m, const ray_opts_t *opts, double t0,
-                             double t1, ray_result_t *res)
+static ray_hit_kind_t search(ctx_t *c, ray_method_t m, const ray_opts_t *opts, int nseg,
+                             const double *t0, const double *t1, ray_result_t *res)
 {
-    double scale = fmax(fabs(t0), fabs(t1));
+    double scale = 0;
+    for (int j = 0; j < nseg; j++)
+        scale = fmax(scale, fmax(fabs(t0[j]), fabs(t1[j])));
     double tol_rel = opts->tol_rel > 0 ? opts->tol_rel : 0x1p-44;
     long budget = opts->max_nodes > 0 ? opts->max_nodes : 100000;
     search_t S;
     S.m = m;
     S.tol = fmax(tol_rel * scale, 8.0 * ulp(scale));
     S.sp = 0;
-    node_t root;
-    node_init(&root, t0, t1);
-    eval_full(c, &root, 1);
-    push(&S, &root);
+    /* the segments, two to an evaluator call, first on top of the stack */
+    node_t roots[RAY_MAX_SEGMENTS];
+    for (int j = 0; j < nseg; j++)
+        node_init(&roots[j], t0[j], t1[j]);
+    for (int j = 0; j < nseg; j += 2)
+        eval_full(c, roots + j, nseg - j < 2 ? nseg - j : 2);
+    for (int j = nseg - 1; j >= 0; j--)
+        push(&S, &roots[j]);
 
-    node_t pending = root;
+    node_t pending = roots[0];
     int have_pending = 0;
     ray_hit_kind_t k = RAY_MISS;
     while (S.sp > 0) {
@@ -719,24 +820,58 @@ ray_hit_kind_t ray_find_root(const tape_t *tape, tape_ws_t *ws, ray_method_t m,
                              const ray_opts_t *opts, const double o[3], const double d[3],
                              double t0, double t1, ray_result_t *res)
 {
+    return ray_find_root_n(tape, ws, m, opts, o, d, 1, &t0, &t1, res, NULL);
+}
+
+ray_hit_kind_t ray_find_root_n(const tape_t *tape, tape_ws_t *ws, ray_method_t m,
+                               const ray_opts_t *opts, const double o[3], const double d[3],
+                               int n, const double *t0, const double *t1, ray_result_t *res,
+                               int *which)
+{
     res->kind = RAY_MISS;
     res->t = res->t_lo = res->t_hi = NAN;
     res->evals = res->nodes = 0;
+    if (which)
+        *which = -1;
     ray_opts_t def;
     if (!opts) {
         ray_opts_default(&def);
         opts = &def;
     }
-    if ((unsigned)m >= RAY_METHOD_COUNT || !(t0 <= t1) || !isfinite(t0) || !isfinite(t1))
+    if ((unsigned)m >= RAY_METHOD_COUNT || n < 1 || n > RAY_MAX_SEGMENTS)
         return RAY_MISS;
     for (int i = 0; i < 3; i++)
         if (!isfinite(o[i]) || !isfinite(d[i]))
             return RAY_MISS;
+    /* invalid segments (t0 > t1, not finite) hold nothing */
+    double a[RAY_MAX_SEGMENTS], b[RAY_MAX_SEGMENTS];
+    int idx[RAY_MAX_SEGMENTS], k = 0;
+    for (int j = 0; j < n; j++)
+        if (t0[j] <= t1[j] && isfinite(t0[j]) && isfinite(t1[j]))
+            a[k] = t0[j], b[k] = t1[j], idx[k++] = j;
+    if (k == 0)
+        return RAY_MISS;
     const int deriv = m != RAY_MRFRO && m != RAY_SAMPLING;
     ctx_t c = {tape, ws, o, d, deriv, deriv && m != RAY_LIPSCHITZ, 0, 0};
-    ray_hit_kind_t k = m == RAY_SAMPLING ? sampling(&c, opts, t0, t1, res)
-                                         : search(&c, m, opts, t0, t1, res);
+    ray_hit_kind_t kind = RAY_MISS;
+    int w = -1;
+    if (m == RAY_SAMPLING) {
+        for (int j = 0; j < k && kind == RAY_MISS; j++)
+            if ((kind = sampling(&c, opts, a[j], b[j], res)) != RAY_MISS)
+                w = j;
+    } else if ((kind = search(&c, m, opts, k, a, b, res)) != RAY_MISS) {
+        /* the first segment holding the start of the hit's bracket: the
+         * search is left first, so the segments before it hold no root */
+        w = k - 1;
+        for (int j = 0; j < k; j++)
+            if (res->t_lo <= b[j]) {
+                w = j;
+                break;
+            }
+    }
+    if (which && w >= 0)
+        *which = idx[w];
     res->evals = c.evals;
     res->nodes = c.nodes;
-    return k;
+    return kind;
 }

@@ -8,11 +8,13 @@ ivoct="${1:-build/release/cli/ivoct}"
 mkdir -p out
 
 # ---- demo commands ----------------------------------------------------------
-# For now: a rigorous enclosure of f and its gradient over the whole box.
-# To be replaced once `ivoct build` exists by:
-#   "$ivoct" build scenes/gumdrop.ini --cells out/gumdrop.csv --stats out/gumdrop.json
-"$ivoct" eval scenes/gumdrop.ini --box -2 2 -2 2 -2 2 --grad --json > out/gumdrop-eval.json.tmp
-mv out/gumdrop-eval.json.tmp out/gumdrop-eval.json
-echo "out/gumdrop-eval.json:"
-cat out/gumdrop-eval.json
+scene=scenes/gumdrop.ini
+"$ivoct" build "$scene" --depth 7 --cells out/gumdrop.csv --stats out/gumdrop.json \
+    --save out/gumdrop.ivo --vtu out/gumdrop.vtu --htg out/gumdrop.htg --vdb out/gumdrop.vdb
+"$ivoct" render "$scene" --octree out/gumdrop.ivo --png out/gumdrop.png --stats out/gumdrop-render.json
+"$ivoct" info out/gumdrop.ivo
+echo
+echo "outputs in out/: gumdrop.csv (surface cells), gumdrop.json (build stats),"
+echo "gumdrop.ivo (octree), gumdrop.vtu / .htg (ParaView), gumdrop.vdb (OpenVDB),"
+echo "gumdrop.png and gumdrop-render.json (ray cast with the octree)"
 # -----------------------------------------------------------------------------

@@ -160,15 +160,21 @@ for line in open(scene):
         box = [float(v) for v in line.split("=")[1].split()]
 with open(cells, newline="") as f:
     rows = list(csv.reader(f))
-if rows[0] != ["x0", "x1", "y0", "y1", "z0", "z1", "depth", "f_lo", "f_hi"]:
+HEADER = ["x0", "x1", "y0", "y1", "z0", "z1", "depth", "f_lo", "f_hi",
+          "nx", "ny", "nz", "d_lo", "d_hi", "error_bound"]
+if rows[0] != HEADER:
     errors.append("csv header %r" % rows[0])
 body = rows[1:]
 if len(body) != st.get("leaves"):
     errors.append("csv: %d rows, stats say %r leaves" % (len(body), st.get("leaves")))
 seen = set()
 for r in body:
-    if len(r) != 9:
+    if len(r) != len(HEADER):
         errors.append("csv: row %r" % r); break
+    # without the ilie test no leaf has a slab; the error bound is the diagonal
+    diag = ((float(r[1]) - float(r[0]))**2 + (float(r[3]) - float(r[2]))**2 + (float(r[5]) - float(r[4]))**2)**0.5
+    if any(r[9:14]) or not (diag <= float(r[14]) <= diag * (1 + 1e-12)):
+        errors.append("csv: slab/error bound %r" % r); break
     x0, x1, y0, y1, z0, z1 = map(float, r[:6]); dep = int(r[6]); flo, fhi = float(r[7]), float(r[8])
     if not (box[0] <= x0 < x1 <= box[1] and box[2] <= y0 < y1 <= box[3] and box[4] <= z0 < z1 <= box[5]):
         errors.append("csv: cell outside the box %r" % r); break
@@ -188,6 +194,45 @@ EOF
         grep -q "^depth: *5$" "$TMP/out" || fail "info: no depth"
     fi
 fi
+# ---- the whole chain: ILIE slabs in the CSV, early leaves -----------------------------------
+run 2 "--refine without ilie" -- build "$SCENES/gumdrop.ini" --depth 4 --refine 0.1 \
+    && one_line_error "--refine without ilie"
+if run 0 "build with ilie" -- build "$SCENES/gumdrop.ini" --depth 5 --threads 2 --quiet \
+    --tests interval,lipschitz,ilie --refine 0.1 --cells "$TMP/i.csv" --stats "$TMP/i.json"; then
+    if "$PY" - "$TMP/i.csv" "$TMP/i.json" <<'EOF'; then ok; else fail "ilie CSV checks (above)"; fi
+import csv, json, sys
+rows = list(csv.reader(open(sys.argv[1], newline="")))
+st = json.load(open(sys.argv[2]))
+errors = []
+body = rows[1:]
+if len(body) != st["leaves"]:
+    errors.append("csv: %d rows, stats say %d leaves" % (len(body), st["leaves"]))
+slabs = 0
+for r in body:
+    dep = int(r[6])
+    diag = ((float(r[1]) - float(r[0]))**2 + (float(r[3]) - float(r[2]))**2 + (float(r[5]) - float(r[4]))**2)**0.5
+    if not 0 <= dep <= 5:
+        errors.append("csv: depth %r" % r); break
+    if any(r[9:14]):
+        slabs += 1
+        n = [float(v) for v in r[9:12]]
+        lo, hi, eb = float(r[12]), float(r[13]), float(r[14])
+        if abs(sum(v * v for v in n) - 1) > 1e-9 or not lo <= hi or not eb >= 0:
+            errors.append("csv: slab %r" % r); break
+    elif not diag <= float(r[14]) <= diag * (1 + 1e-12):
+        errors.append("csv: error bound of a leaf without slab %r" % r); break
+    if dep < 5 and not any(r[9:14]):
+        errors.append("csv: an early leaf without a slab %r" % r); break
+if slabs == 0:
+    errors.append("csv: no leaf has a slab")
+if sum(st["leaves_by_depth"][:5]) != st["decided_by"]["refine"]:
+    errors.append("stats: early leaves %r != decided_by.refine %r" % (st["leaves_by_depth"], st["decided_by"]["refine"]))
+for e in errors:
+    print("  " + e, file=sys.stderr)
+sys.exit(1 if errors else 0)
+EOF
+fi
+
 run 0 "info --help" -- info --help
 run 2 "info without file" -- info
 run 2 "info on a missing file" -- info "$TMP/none.ivo" && one_line_error "info on a missing file"
@@ -213,6 +258,12 @@ for s in sphere csg-64-spheres thin-shell horned-cube; do
     run 0 "$s threads 1" -- build "$SCENES/$s.ini" --depth 6 --threads 1 --quiet --save "$TMP/t1.ivo" &&
     run 0 "$s threads 2" -- build "$SCENES/$s.ini" --depth 6 --threads 2 --quiet --save "$TMP/t2.ivo" &&
     { cmp -s "$TMP/t1.ivo" "$TMP/t2.ivo" && ok || fail "$s: --threads 1 and 2 give different .ivo files"; }
+done
+for s in csg-64-spheres gumdrop; do
+    all=(--tests interval,lipschitz,ilie --refine 0.05)
+    run 0 "$s ilie threads 1" -- build "$SCENES/$s.ini" --depth 6 "${all[@]}" --threads 1 --quiet --save "$TMP/t1.ivo" &&
+    run 0 "$s ilie threads 2" -- build "$SCENES/$s.ini" --depth 6 "${all[@]}" --threads 2 --quiet --save "$TMP/t2.ivo" &&
+    { cmp -s "$TMP/t1.ivo" "$TMP/t2.ivo" && ok || fail "$s (ilie, refine): --threads 1 and 2 give different .ivo files"; }
 done
 
 # ---- corrupt files: info exits 2 with one line ----------------------------------------------

@@ -2,7 +2,8 @@
  * independent method.
  *
  * For every scene file, built at a modest depth D with the tests "interval"
- * and "interval,lipschitz":
+ * and "interval,lipschitz", and with "interval,lipschitz,ilie" and refine
+ * (early leaves, 2% of the box's edge; coarser leaves are expanded):
  *
  *  1. Sign changes.  f is sampled on the grid of depth D+2 (4 samples per leaf
  *     edge), at exactly the cell-bound coordinates oct_coord(lo, hi, i, D+2), so
@@ -532,12 +533,17 @@ static long check_loaded(const scene_t *sp, const char *name, int depth)
     grid_init(&g, &s, depth);
     double t_grid = omp_get_wtime() - t0, t_build = 0, t_sign = 0, t_empty = 0;
 
-    static const unsigned configs[2] = {OCT_TEST_INTERVAL, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ};
-    for (int c = 0; c < 2; c++) {
+    /* the chain of the issue (interval; interval, lipschitz), then the whole
+     * chain with ILIE and early leaves (refine: 2% of the box's largest edge) */
+    static const unsigned configs[3] = {OCT_TEST_INTERVAL, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ,
+                                        OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE};
+    double edge = fmax(s.box[1] - s.box[0], fmax(s.box[3] - s.box[2], s.box[5] - s.box[4]));
+    for (int c = 0; c < 3; c++) {
         char what[256];
         snprintf(what, sizeof what, "%s [%s]", name,
-                 c == 0 ? "interval" : "interval,lipschitz");
-        oct_params_t p = {.depth = depth, .tests = configs[c], .threads = 2};
+                 c == 0 ? "interval" : c == 1 ? "interval,lipschitz" : "all, refine");
+        oct_params_t p = {.depth = depth, .tests = configs[c], .refine = c == 2 ? 0.02 * edge : 0,
+                          .threads = 2};
         oct_tree_t *t;
         double t1 = omp_get_wtime();
         if (oct_build(s.tape, s.box, &p, &t, &err) != 0)

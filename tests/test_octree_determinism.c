@@ -1,13 +1,15 @@
 /* The octree does not depend on the number of threads (DESIGN.md §3).
  *
  * Several scenes (among them the CSG union, whose tapes are pruned per cell,
- * and the thin shell, pruned through abs) are built through the C API with 1,
+ * and the thin shell, pruned through abs), with the scene's tests and with the
+ * whole chain (ILIE slabs, early leaves), are built through the C API with 1,
  * 2 and 3 threads (3 > the cores of a small machine: other interleavings) and
  * twice with 2; each tree is saved with oct_save and the files must be
  * byte-identical.  The statistics that do not measure time or memory must
  * agree too.  The CLI side (ivoct build --threads 1 / 2, compared with cmp)
  * is in tests/test_build_cli.sh. */
 #define _POSIX_C_SOURCE 200809L
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -90,37 +92,46 @@ static void test_threads(void **state)
         if (scene_load(path, &s, &err) != 0)
             fail_msg("cannot load %s: %s", path, err.msg);
         oct_source_t src = {s.name, s.n_lets, s.let_names, s.let_texts, s.f_text};
-        unsigned char *first = NULL;
-        size_t first_n = 0;
-        oct_stats_t first_st;
-        for (size_t r = 0; r < sizeof runs / sizeof *runs; r++) {
-            oct_params_t p = {.depth = depth, .tests = s.tests, .threads = runs[r]};
-            oct_tree_t *t;
-            if (oct_build(s.tape, s.box, &p, &t, &err) != 0)
-                fail_msg("%s: oct_build: %s", SCENES[i], err.msg);
-            assert_int_equal(t->stats.threads, runs[r]);
-            char out[4200];
-            snprintf(out, sizeof out, "%s/%s-%zu.ivo", dir, SCENES[i], r);
-            if (oct_save(t, &src, out, &err) != 0)
-                fail_msg("oct_save %s: %s", out, err.msg);
-            size_t n;
-            unsigned char *bytes = read_all(out, &n);
-            if (!first) {
-                first = bytes, first_n = n, first_st = t->stats;
-                printf("%-16s depth %d: %8u leaves, %9llu cells, %8zu bytes", SCENES[i], depth,
-                       t->n_leaves, (unsigned long long)t->stats.cells_visited, n);
-            } else {
-                if (n != first_n || memcmp(bytes, first, n) != 0)
-                    fail_msg("%s: the tree built with %d threads differs from the one with %d",
-                             SCENES[i], runs[r], runs[0]);
-                same_counts(&first_st, &t->stats);
-                free(bytes);
+        double edge = fmax(s.box[1] - s.box[0], fmax(s.box[3] - s.box[2], s.box[5] - s.box[4]));
+        /* the scene's tests (interval, lipschitz), then the whole chain with
+         * ILIE slabs and early leaves */
+        for (int chain = 0; chain < 2; chain++) {
+            unsigned tests = chain ? OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE : s.tests;
+            double refine = chain ? 0.02 * edge : 0;
+            unsigned char *first = NULL;
+            size_t first_n = 0;
+            oct_stats_t first_st;
+            for (size_t r = 0; r < sizeof runs / sizeof *runs; r++) {
+                oct_params_t p = {.depth = depth, .tests = tests, .refine = refine,
+                                  .threads = runs[r]};
+                oct_tree_t *t;
+                if (oct_build(s.tape, s.box, &p, &t, &err) != 0)
+                    fail_msg("%s: oct_build: %s", SCENES[i], err.msg);
+                assert_int_equal(t->stats.threads, runs[r]);
+                char out[4200];
+                snprintf(out, sizeof out, "%s/%s-%zu.ivo", dir, SCENES[i], r);
+                if (oct_save(t, &src, out, &err) != 0)
+                    fail_msg("oct_save %s: %s", out, err.msg);
+                size_t n;
+                unsigned char *bytes = read_all(out, &n);
+                if (!first) {
+                    first = bytes, first_n = n, first_st = t->stats;
+                    printf("%-16s %-16s depth %d: %8u leaves, %9llu cells, %8zu bytes", SCENES[i],
+                           chain ? "all, refine" : "scene's tests", depth, t->n_leaves,
+                           (unsigned long long)t->stats.cells_visited, n);
+                } else {
+                    if (n != first_n || memcmp(bytes, first, n) != 0)
+                        fail_msg("%s: the tree built with %d threads differs from the one with %d",
+                                 SCENES[i], runs[r], runs[0]);
+                    same_counts(&first_st, &t->stats);
+                    free(bytes);
+                }
+                remove(out);
+                oct_free(t);
             }
-            remove(out);
-            oct_free(t);
+            printf(" - identical for 1, 2, 3, 2 threads\n");
+            free(first);
         }
-        printf(" - identical for 1, 2, 3, 2 threads\n");
-        free(first);
         scene_free(&s);
     }
     rmdir(dir);

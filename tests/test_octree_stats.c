@@ -1,8 +1,9 @@
 /* Build statistics: consistent with each other and with the tree they describe;
  * tape pruning measured on the CSG union of 64 spheres.
  *
- * For every scene at depth 5 (4 under IVOCT_ASAN), with "interval" and
- * "interval,lipschitz", 1 and 2 threads:
+ * For every scene at depth 5 (4 under IVOCT_ASAN), with "interval",
+ * "interval,lipschitz", "interval,lipschitz,ilie" without and with refine
+ * (2% of the box's edge), 1 and 2 threads:
  *   leaves = n_leaves = sum of leaves_by_depth = decided max_depth + refine;
  *   decided interval + lipschitz + ilie + refine + max_depth = cells_visited - split;
  *   cells_visited = 1 + 8 split = n_nodes = sum of cells_by_depth;
@@ -10,14 +11,15 @@
  *   the tree equal cells_by_depth, split_by_depth, leaves_by_depth, and the
  *   empty nodes equal the cells decided by a test;
  *   cells_by_depth[d + 1] = 8 split_by_depth[d];
- *   no test that is off decides anything (lipschitz with "interval"; ilie and
- *   refine, not available, never);
+ *   no test that is off decides anything; without refine every leaf is at
+ *   the max depth; trees have slabs exactly when ilie ran;
  *   tape pruning never lengthens a tape: tape_length_sum_by_depth[d] <=
  *   split_by_depth[d] * n, with equality when the tape has no min/max/abs;
  *   with "interval" alone and no choices, every visited cell costs one pass
  *   over the whole tape: tape_clauses_evaluated = cells_visited * n;
  *   every leaf's F interval holds 0 (an interval-test survivor);
- *   max_error_bound is the diagonal of a max-depth cell (up to rounding);
+ *   max_error_bound is the largest oct_leaf_error_bound, and without ilie the
+ *   diagonal of a max-depth cell (up to rounding);
  *   threads is what was asked for; peak_bytes covers the tree's storage.
  *
  * Tape pruning (issue 3: "~300 clauses at the root to about 10 by depth 4"):
@@ -54,9 +56,9 @@ static void load(const char *path, scene_t *s)
     }
 }
 
-static oct_tree_t *build(const scene_t *s, int depth, unsigned tests, int threads)
+static oct_tree_t *build(const scene_t *s, int depth, unsigned tests, double refine, int threads)
 {
-    oct_params_t p = {.depth = depth, .tests = tests, .threads = threads};
+    oct_params_t p = {.depth = depth, .tests = tests, .refine = refine, .threads = threads};
     oct_tree_t *t;
     ivoct_error_t err;
     ivoct_error_clear(&err);
@@ -147,8 +149,17 @@ static void check_stats(const char *name, const scene_t *s, const oct_tree_t *t,
 
     if (!(tests & OCT_TEST_LIPSCHITZ))
         assert_int_equal(st->decided_lipschitz, 0);
-    assert_int_equal(st->decided_ilie, 0);
-    assert_int_equal(st->decided_refine, 0);
+    if (!(tests & OCT_TEST_ILIE)) {
+        assert_int_equal(st->decided_ilie, 0);
+        assert_null(t->slabs);
+    } else {
+        assert_non_null(t->slabs);
+    }
+    if (!(t->refine > 0)) {
+        /* no early leaves: every leaf at the max depth */
+        assert_int_equal(st->decided_refine, 0);
+        assert_int_equal(st->leaves_by_depth[t->depth], t->n_leaves);
+    }
 
     int choices = tape_has_choices(s->tape);
     for (int d = 0; d <= OCT_MAX_DEPTH; d++) {
@@ -167,15 +178,23 @@ static void check_stats(const char *name, const scene_t *s, const oct_tree_t *t,
             fail_msg("%s: leaf %u has F = [%g, %g] without 0", name, i, l->f_lo, l->f_hi);
     }
 
-    if (t->n_leaves > 0) {
+    /* the largest error bound is that of some leaf; without slabs, a leaf's
+     * is its diagonal, the same for every max-depth leaf */
+    double worst = 0;
+    for (uint32_t i = 0; i < t->n_leaves; i++) {
+        double e = oct_leaf_error_bound(t, i);
+        assert_true(e >= 0);
+        if (e > worst)
+            worst = e;
+    }
+    assert_true(st->max_error_bound == worst);
+    if (t->n_leaves > 0 && !(tests & OCT_TEST_ILIE)) {
         double e[3];
         for (int a = 0; a < 3; a++)
             e[a] = (s->box[2 * a + 1] - s->box[2 * a]) / (double)(1u << t->depth);
         double diag = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
         assert_true(st->max_error_bound >= diag * (1 - 1e-6));
         assert_true(st->max_error_bound <= diag * (1 + 1e-6));
-    } else {
-        assert_true(st->max_error_bound == 0);
     }
     assert_int_equal(st->threads, threads);
     size_t storage = (size_t)t->n_nodes * sizeof *t->nodes + (size_t)t->n_leaves * sizeof *t->leaves;
@@ -193,21 +212,26 @@ static void test_every_scene(void **state)
     for (int i = 0; i < n; i++) {
         scene_t s;
         load(paths[i], &s);
-        static const unsigned configs[2] = {OCT_TEST_INTERVAL,
-                                            OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ};
-        uint64_t visited[2][2];
-        for (int c = 0; c < 2; c++)
+        static const unsigned configs[3] = {
+            OCT_TEST_INTERVAL, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ,
+            OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE};
+        double edge = fmax(s.box[1] - s.box[0], fmax(s.box[3] - s.box[2], s.box[5] - s.box[4]));
+        uint64_t visited[4][2];
+        for (int c = 0; c < 4; c++)
             for (int th = 1; th <= 2; th++) {
-                oct_tree_t *t = build(&s, depth, configs[c], th);
-                check_stats(paths[i], &s, t, configs[c], th);
+                /* c = 3: the whole chain with early leaves */
+                unsigned tests = configs[c < 3 ? c : 2];
+                oct_tree_t *t = build(&s, depth, tests, c == 3 ? 0.02 * edge : 0, th);
+                check_stats(paths[i], &s, t, tests, th);
                 visited[c][th - 1] = t->stats.cells_visited;
                 oct_free(t);
             }
-        /* the counts do not depend on the thread count; the Lipschitz test
-         * only ever removes cells */
-        assert_int_equal(visited[0][0], visited[0][1]);
-        assert_int_equal(visited[1][0], visited[1][1]);
-        assert_true(visited[1][0] <= visited[0][0]);
+        /* the counts do not depend on the thread count; each test added only
+         * ever removes cells, and so do early leaves */
+        for (int c = 0; c < 4; c++)
+            assert_int_equal(visited[c][0], visited[c][1]);
+        for (int c = 1; c < 4; c++)
+            assert_true(visited[c][0] <= visited[c - 1][0]);
         scene_free(&s);
     }
     tu_free_list(paths, n);
@@ -227,7 +251,7 @@ static void test_edge_trees(void **state)
     double box[6] = {-2, 2, -2, 2, -2, 2};
     memcpy(s.box, box, sizeof box);
 
-    oct_tree_t *t = build(&s, 0, OCT_TEST_INTERVAL, 1);
+    oct_tree_t *t = build(&s, 0, OCT_TEST_INTERVAL, 0, 1);
     assert_int_equal(t->n_leaves, 1);
     assert_int_equal(t->n_nodes, 1);
     assert_int_equal(t->stats.split, 0);
@@ -236,7 +260,7 @@ static void test_edge_trees(void **state)
 
     double far[6] = {3, 4, 3, 4, 3, 4};
     memcpy(s.box, far, sizeof far);
-    t = build(&s, 6, OCT_TEST_INTERVAL, 2);
+    t = build(&s, 6, OCT_TEST_INTERVAL, 0, 2);
     assert_int_equal(t->n_leaves, 0);
     assert_int_equal(t->n_nodes, 1);
     assert_int_equal(OCT_NODE_KIND(t->nodes[0]), OCT_EMPTY);
@@ -255,7 +279,7 @@ static void test_tape_pruning(void **state)
     load(path, &s);
     assert_true(tape_has_choices(s.tape));
     int depth = 6;
-    oct_tree_t *t = build(&s, depth, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ, 2);
+    oct_tree_t *t = build(&s, depth, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ, 0, 2);
     check_stats(path, &s, t, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ, 2);
     const oct_stats_t *st = &t->stats;
     printf("CSG 64 spheres: the tape has %u clauses; mean tape length of the cells split, by depth:\n",

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # `ivoct render` from the outside: exit codes and one-line messages, outputs
 # complete or absent (never partial), byte-identical PNG and .vti for 1 and 2
-# threads, the stats JSON, the PNG and .vti contents, turntable frame names.
+# threads, the stats JSON, the PNG and .vti contents, turntable frame names;
+# the octree: built by default or loaded with --octree (same image either way,
+# and the same hits and t as --no-octree), mismatched or bad .ivo files.
 #
 # Needs IVOCT_BIN (the CLI) and IVOCT_SOURCE_DIR (the source tree), as set by
 # ctest; /usr/bin/python3 reads the JSON, PNG and .vti outputs.
@@ -84,8 +86,8 @@ run 2 "--frames x" -- render "$S" --frames x && one_line_error "--frames x"
 run 2 "unknown option" -- render "$S" --bogus && one_line_error "unknown option"
 run 2 "option without value" -- render "$S" --png && one_line_error "option without value"
 run 2 "two scenes" -- render "$S" "$S" && one_line_error "two scenes"
-run 2 "--octree" -- render "$S" --octree "$TMP/x.ivo" --png "$TMP/o/x.png" &&
-    one_line_error "--octree" && grep -q "not available yet" "$TMP/err" && ok
+run 2 "--octree missing file" -- render "$S" --octree "$TMP/x.ivo" --png "$TMP/o/x.png" &&
+    one_line_error "--octree missing file" && grep -q "x.ivo" "$TMP/err" && ok
 run 2 "--octree and --no-octree" -- render "$S" --octree a.ivo --no-octree &&
     one_line_error "--octree and --no-octree"
 run 2 "missing scene file" -- render "$TMP/none.ini" --png "$TMP/o/x.png" &&
@@ -133,8 +135,8 @@ for m in newton-ah mrfro; do
 done
 
 # ---- contents -------------------------------------------------------------------------------
-if run 0 "render sphere" -- render "$S" --method mitchell --size 40x30 --png "$TMP/s.png" \
-    --vti "$TMP/s.vti" --stats "$TMP/s.json"; then
+if run 0 "render sphere" -- render "$S" --no-octree --method mitchell --size 40x30 \
+    --png "$TMP/s.png" --vti "$TMP/s.vti" --stats "$TMP/s.json"; then
     [ "$(wc -l <"$TMP/out")" -eq 1 ] && ok || fail "expected a one-line summary on stdout"
     if "$PY" - "$TMP/s.json" "$TMP/s.png" "$TMP/s.vti" <<'EOF'; then ok; else fail "contents (above)"; fi
 import base64, json, math, struct, sys, zlib
@@ -235,6 +237,91 @@ if run 0 "--frames 3" -- render "$S" --size 16x12 --frames 3 --png "$TMP/o/f.png
     # the sphere looks the same from every side of a turntable; the directions do not
     cmp -s "$TMP/o/v_000" "$TMP/o/v_001" && fail "frames 0 and 1 are identical" || ok
     [ "$(ls "$TMP/o" | wc -l)" -eq 7 ] && ok || fail "unexpected files: $(ls "$TMP/o" | tr '\n' ' ')"
+fi
+
+# ---- the octree: built in-process (the default), or loaded with --octree ---------------------
+vti_t() { # print t of a .vti, one value per line (nan on a miss)
+    "$PY" - "$1" <<'EOF'
+import base64, struct, sys
+import xml.etree.ElementTree as ET
+img = ET.parse(sys.argv[1]).getroot().find("ImageData")
+for a in img.find("Piece").find("PointData"):
+    if a.get("Name") == "t":
+        raw = base64.b64decode("".join(a.text.split()))
+        n, = struct.unpack("<Q", raw[:8])
+        for v in struct.unpack("<%dd" % (n // 8), raw[8:]):
+            print(repr(v))
+EOF
+}
+G=$SCENES/gumdrop.ini
+rm -rf "$TMP/o" && mkdir -p "$TMP/o"
+if run 0 "build --save" -- build "$G" --save "$TMP/g.ivo" --quiet; then
+    for m in newton-ah lipschitz; do
+        run 0 "render default octree $m" -- render "$G" --method $m --size 48x40 --threads 1 \
+            --png "$TMP/d.png" --vti "$TMP/d.vti" --stats "$TMP/d.json"
+        grep -q "octree depth 8" "$TMP/out" && grep -q "built in" "$TMP/out" && ok ||
+            fail "summary of the built octree: $(cat "$TMP/out")"
+        run 0 "render --octree $m" -- render "$G" --octree "$TMP/g.ivo" --method $m --size 48x40 \
+            --threads 2 --png "$TMP/f.png" --vti "$TMP/f.vti" --stats "$TMP/f.json" --quiet
+        cmp -s "$TMP/d.png" "$TMP/f.png" && ok || fail "$m: PNG of the built and the loaded octree differ"
+        cmp -s "$TMP/d.vti" "$TMP/f.vti" && ok || fail "$m: .vti of the built and the loaded octree differ"
+        run 0 "render --no-octree $m" -- render "$G" --no-octree --method $m --size 48x40 \
+            --vti "$TMP/n.vti" --stats "$TMP/n.json" --quiet
+        # same hits, t to 1e-12 relative
+        paste <(vti_t "$TMP/d.vti") <(vti_t "$TMP/n.vti") | "$PY" -c '
+import math, sys
+bad = 0
+for line in sys.stdin:
+    a, b = map(float, line.split())
+    if math.isnan(a) != math.isnan(b) or (not math.isnan(a) and abs(a - b) > 1e-12 * max(1, abs(a))):
+        bad += 1
+sys.exit(bad != 0)' && ok || fail "$m: octree and --no-octree images differ"
+        "$PY" - "$TMP/d.json" "$TMP/f.json" "$TMP/n.json" "$TMP/g.ivo" <<'EOF' && ok || fail "$m: octree stats (above)"
+import json, sys
+d, f, n = (json.load(open(p)) for p in sys.argv[1:4])
+assert d["octree"] is True and f["octree"] is True and n["octree"] is False
+for s in (d, f):
+    assert 0 < s["leaves_visited"] <= s["segments"], s
+    assert s["octree_depth"] == 8 and s["octree_leaves"] > 0
+assert d["octree_source"] == "built" and d["build_time_s"] > 0 and d["time_s"] > 0
+assert f["octree_source"] == sys.argv[4] and "build_time_s" not in f
+assert n["leaves_visited"] == 0 and "build_time_s" not in n and "octree_source" not in n
+assert d["hits"] == f["hits"] == n["hits"] and d["rays"] == 48 * 40
+assert d["tape_evals"] < n["tape_evals"]
+EOF
+    done
+    # 1 and 2 threads with the octree: identical files
+    for src in default file; do
+        extra=()
+        [ $src = file ] && extra=(--octree "$TMP/g.ivo")
+        run 0 "octree ($src) 1 thread" -- render "$G" "${extra[@]}" --method mitchell --size 40x30 \
+            --threads 1 --png "$TMP/a.png" --vti "$TMP/a.vti" --quiet
+        run 0 "octree ($src) 2 threads" -- render "$G" "${extra[@]}" --method mitchell --size 40x30 \
+            --threads 2 --png "$TMP/b.png" --vti "$TMP/b.vti" --quiet
+        cmp -s "$TMP/a.png" "$TMP/b.png" && ok || fail "octree ($src): PNG differs between 1 and 2 threads"
+        cmp -s "$TMP/a.vti" "$TMP/b.vti" && ok || fail "octree ($src): .vti differs between 1 and 2 threads"
+    done
+    # a turntable from one octree
+    if run 0 "--octree --frames 3" -- render "$G" --octree "$TMP/g.ivo" --size 16x12 --frames 3 \
+        --png "$TMP/o/g.png" --stats "$TMP/o/g.json" --quiet; then
+        for k in 000 001 002; do
+            [ -s "$TMP/o/g_$k.png" ] && ok || fail "missing frame g_$k.png"
+        done
+        "$PY" -c 'import json,sys; s=json.load(open(sys.argv[1])); assert s["frames"]==3 and s["octree"] and s["rays"]==3*16*12' \
+            "$TMP/o/g.json" && ok || fail "stats of --octree --frames"
+        rm -f "$TMP"/o/g_*.png "$TMP/o/g.json"
+    fi
+    # a saved octree from another scene, another box, or not an octree: exit 2, one line
+    run 2 "--octree of another scene" -- render "$S" --octree "$TMP/g.ivo" --png "$TMP/o/x.png" &&
+        one_line_error "--octree of another scene" && grep -q "was not built from" "$TMP/err" &&
+        grep -q "its box" "$TMP/err" && ok
+    sed 's/^f *=.*/f = 4*(x^4 + (y^2+z^2)^2) + 17*x^2*(y^2+z^2) - 20*(x^2+y^2+z^2) + 16/' "$G" >"$TMP/g2.ini"
+    run 2 "--octree of another f" -- render "$TMP/g2.ini" --octree "$TMP/g.ivo" --png "$TMP/o/x.png" &&
+        one_line_error "--octree of another f" && grep -q "its f" "$TMP/err" && ok
+    printf 'not an octree\n' >"$TMP/bad.ivo"
+    run 2 "--octree of a bad file" -- render "$G" --octree "$TMP/bad.ivo" --png "$TMP/o/x.png" &&
+        one_line_error "--octree of a bad file"
+    no_outputs "--octree errors"
 fi
 
 echo "$checks checks passed, $failures failed"

@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# Ray casting with and without the octree (issue 6), side by side in one run.
+#   bash bench/ray.sh [--build DIR] [--size WxH] [--reps N] [--surfaces "sphere gumdrop"]
+#                     [--methods "mitchell lipschitz"]
+# For each comparison surface: the octree is built once with the scene's [octree]
+# settings (ivoct build --save: the build time is reported apart), then for each method
+# the same render (scene camera, --size, default 300x300) is timed with the saved octree
+# (2 threads and 1 thread) and with --no-octree (2 threads), interleaved so both sides see
+# the same machine load; each time is the best of --reps runs (default 2) of the render
+# alone (the stats' time_s: no loading, no output).  Writes bench/results/ray.csv and
+# bench/results/ray.md (a Markdown table).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(cd "$here/.." && pwd)
+build=${IVOCT_BUILD:-$root/build/release}
+size=300x300
+reps=2
+surfaces="sphere drop chubs crosscap gumdrop horned-cube mcmullen-k3 kusner-schmitt"
+methods="mitchell newton newton-ah mrfro mrfro-newton lipschitz sampling"
+while [ $# -gt 0 ]; do
+    case $1 in
+    --build) build=$2; shift 2 ;;
+    --size) size=$2; shift 2 ;;
+    --reps) reps=$2; shift 2 ;;
+    --surfaces) surfaces=$2; shift 2 ;;
+    --methods) methods=$2; shift 2 ;;
+    *) echo "bench/ray.sh: unknown option $1" >&2; exit 2 ;;
+    esac
+done
+bin=$build/cli/ivoct
+[ -x "$bin" ] || { echo "bench/ray.sh: no $bin (build first, or --build DIR)" >&2; exit 2; }
+out=$root/bench/results
+mkdir -p "$out"
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+
+# best time_s of $reps renders; the stats of the last one stay in $tmp/r.json
+best() {
+    local b=
+    for _ in $(seq "$reps"); do
+        "$bin" render "$@" --size "$size" --stats "$tmp/r.json" --quiet
+        local t
+        t=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["time_s"])' "$tmp/r.json")
+        b=$(python3 -c 'import sys; a=sys.argv[1]; print(sys.argv[2] if not a else min(float(a), float(sys.argv[2])))' "$b" "$t")
+    done
+    cp "$tmp/r.json" "$tmp/last.json"
+    echo "$b"
+}
+
+csv=$out/ray.csv
+echo "surface,method,build_s,leaves,octree_2t_s,octree_1t_s,none_2t_s,speedup_2t,leaves_per_ray,evals_per_ray_octree,evals_per_ray_none,hits" >"$csv"
+echo "load average at start: $(cut -d' ' -f1-3 /proc/loadavg)" >"$out/ray.load"
+for s in $surfaces; do
+    scene=$root/scenes/$s.ini
+    "$bin" build "$scene" --threads 2 --save "$tmp/$s.ivo" --stats "$tmp/b.json" --quiet
+    read -r build_s leaves < <(python3 -c 'import json,sys; b=json.load(open(sys.argv[1])); print(b["time_s"], b["leaves"])' "$tmp/b.json")
+    for m in $methods; do
+        o2=$(best "$scene" --octree "$tmp/$s.ivo" --method "$m" --threads 2)
+        cp "$tmp/last.json" "$tmp/o.json"
+        o1=$(best "$scene" --octree "$tmp/$s.ivo" --method "$m" --threads 1)
+        n2=$(best "$scene" --no-octree --method "$m" --threads 2)
+        cp "$tmp/last.json" "$tmp/n.json"
+        python3 - "$tmp/o.json" "$tmp/n.json" "$s" "$m" "$build_s" "$leaves" "$o2" "$o1" "$n2" >>"$csv" <<'EOF'
+import json, sys
+o, n = (json.load(open(p)) for p in sys.argv[1:3])
+s, m, build_s, leaves = sys.argv[3:7]
+o2, o1, n2 = map(float, sys.argv[7:10])
+r = o["rays"]
+print("%s,%s,%.3f,%s,%.4f,%.4f,%.4f,%.1f,%.2f,%.1f,%.1f,%d" % (
+    s, m, float(build_s), leaves, o2, o1, n2, n2 / o2, o["leaves_visited"] / r,
+    o["tape_evals"] / r, n["tape_evals"] / r, o["hits"]))
+EOF
+        tail -1 "$csv"
+    done
+done
+echo "load average at end: $(cut -d' ' -f1-3 /proc/loadavg)" >>"$out/ray.load"
+
+python3 - "$csv" >"$out/ray.md" <<'EOF'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+print("| surface | build s | method | octree 2t s | octree 1t s | none 2t s | speedup | leaves/ray | evals/ray octree | evals/ray none |")
+print("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|")
+for r in rows:
+    print("| %s | %s | %s | %.3f | %.3f | %.3f | %.1f× | %s | %s | %s |" % (
+        r["surface"], r["build_s"], r["method"], float(r["octree_2t_s"]), float(r["octree_1t_s"]),
+        float(r["none_2t_s"]), float(r["speedup_2t"]), r["leaves_per_ray"],
+        r["evals_per_ray_octree"], r["evals_per_ray_none"]))
+EOF
+cat "$out/ray.load"
+echo "wrote $csv and $out/ray.md"

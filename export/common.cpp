@@ -1,0 +1,208 @@
+// ivoct export/ — the C entry points, output files, .ply and .obj meshes, and
+// recognising files for `ivoct info`.  Includes neither VTK nor OpenVDB.
+#include <cerrno>
+#include <cstring>
+#include <strings.h>
+
+#include "internal.hpp"
+
+namespace ivexp {
+
+Output::Output(const char *path) : path_(path)
+{
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    if (io_open(&f_, path, &err))
+        throw Error(err.msg);
+    open_ = true;
+}
+
+Output::~Output()
+{
+    if (open_)
+        io_abort(&f_);
+}
+
+void Output::write(const void *data, size_t n)
+{
+    if (n && fwrite(data, 1, n, f_.f) != n)
+        throw Error("cannot write " + path_ + ": " + std::strerror(errno ? errno : EIO));
+}
+
+void Output::commit()
+{
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    open_ = false;
+    if (io_commit(&f_, &err))  // removes the temporary on failure
+        throw Error(err.msg);
+}
+
+std::vector<MetaItem> meta_strings(const exp_meta_t *meta)
+{
+    std::vector<MetaItem> items;
+    if (meta && meta->name)
+        items.push_back({"scene", meta->name});
+    for (size_t i = 0; meta && i < meta->n_lets; i++)
+        if (meta->let_names && meta->let_texts && meta->let_names[i] && meta->let_texts[i])
+            items.push_back({std::string("let.") + meta->let_names[i], meta->let_texts[i]});
+    if (meta && meta->f)
+        items.push_back({"expression", meta->f});
+    items.push_back({"creator", "ivoct"});
+    return items;
+}
+
+namespace {
+
+const char *extension(const char *path)
+{
+    const char *slash = std::strrchr(path, '/');
+    const char *dot = std::strrchr(slash ? slash : path, '.');
+    return dot ? dot : "";
+}
+
+void put_u32le(unsigned char *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++)
+        p[i] = (unsigned char)(v >> (8 * i));
+}
+
+void write_ply(const Mesh &m, const exp_meta_t *meta, const char *path)
+{
+    Output out(path);
+    size_t nv = m.points.size() / 3, nt = m.tris.size() / 3;
+    std::string header = "ply\nformat binary_little_endian 1.0\ncomment written by ivoct\n";
+    if (meta && meta->name && !std::strpbrk(meta->name, "\r\n"))
+        header += std::string("comment scene ") + meta->name + "\n";
+    header += "element vertex " + std::to_string(nv) +
+              "\nproperty float x\nproperty float y\nproperty float z\n"
+              "element face " + std::to_string(nt) +
+              "\nproperty list uchar int vertex_indices\nend_header\n";
+    out.write(header.data(), header.size());
+    std::vector<unsigned char> buf;
+    buf.reserve(4096 * 13);
+    auto flush = [&] {
+        out.write(buf.data(), buf.size());
+        buf.clear();
+    };
+    for (size_t i = 0; i < 3 * nv; i++) {
+        uint32_t bits;
+        std::memcpy(&bits, &m.points[i], 4);
+        unsigned char b[4];
+        put_u32le(b, bits);
+        buf.insert(buf.end(), b, b + 4);
+        if (buf.size() >= 4096 * 12)
+            flush();
+    }
+    for (size_t t = 0; t < nt; t++) {
+        unsigned char b[13];
+        b[0] = 3;
+        for (int k = 0; k < 3; k++)
+            put_u32le(b + 1 + 4 * k, m.tris[3 * t + k]);
+        buf.insert(buf.end(), b, b + 13);
+        if (buf.size() >= 4096 * 12)
+            flush();
+    }
+    flush();
+    out.commit();
+}
+
+void write_obj(const Mesh &m, const exp_meta_t *meta, const char *path)
+{
+    Output out(path);
+    FILE *f = out.file();
+    std::fprintf(f, "# written by ivoct\n");
+    if (meta && meta->name && !std::strpbrk(meta->name, "\r\n"))
+        std::fprintf(f, "# scene %s\n", meta->name);
+    for (size_t i = 0; i + 2 < m.points.size(); i += 3)
+        std::fprintf(f, "v %.9g %.9g %.9g\n", (double)m.points[i], (double)m.points[i + 1],
+                     (double)m.points[i + 2]);
+    for (size_t t = 0; t + 2 < m.tris.size(); t += 3)
+        std::fprintf(f, "f %lu %lu %lu\n", (unsigned long)m.tris[t] + 1,
+                     (unsigned long)m.tris[t + 1] + 1, (unsigned long)m.tris[t + 2] + 1);
+    out.commit();
+}
+
+enum class Format { none, vtk, vdb };
+
+// VDB files start with the 64-bit magic number 0x56444220 ("VDB " little-endian);
+// VTK XML files with an XML declaration or the VTKFile element.
+Format sniff(const char *path)
+{
+    FILE *f = std::fopen(path, "rb");
+    if (!f)
+        return Format::none;
+    unsigned char b[16] = {0};
+    size_t n = std::fread(b, 1, sizeof b, f);
+    std::fclose(f);
+    static const unsigned char vdb[8] = {0x20, 0x42, 0x44, 0x56, 0, 0, 0, 0};
+    if (n >= 8 && !std::memcmp(b, vdb, 8))
+        return Format::vdb;
+    if ((n >= 5 && !std::memcmp(b, "<?xml", 5)) || (n >= 8 && !std::memcmp(b, "<VTKFile", 8)))
+        return Format::vtk;
+    return Format::none;
+}
+
+}  // namespace
+}  // namespace ivexp
+
+using namespace ivexp;
+
+extern "C" {
+
+int exp_vtu(const oct_tree_t *tree, const exp_meta_t *meta, const char *path,
+            ivoct_error_t *err)
+{
+    return guard(err, [&] { vtk_write_vtu(tree, meta, path); });
+}
+
+int exp_htg(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+            const char *path, ivoct_error_t *err)
+{
+    return guard(err, [&] { vtk_write_htg(tree, tape, meta, path); });
+}
+
+int exp_vdb(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+            const char *path, ivoct_error_t *err)
+{
+    return guard(err, [&] { vdb_write(tree, tape, meta, path); });
+}
+
+int exp_mesh_supported(const char *path)
+{
+    const char *e = extension(path);
+    return !strcasecmp(e, ".vtp") || !strcasecmp(e, ".ply") || !strcasecmp(e, ".obj");
+}
+
+int exp_mesh(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+             const char *path, ivoct_error_t *err)
+{
+    return guard(err, [&] {
+        const char *e = extension(path);
+        if (!exp_mesh_supported(path))
+            throw Error(std::string("cannot write ") + path +
+                        ": unknown mesh format (the name must end in .vtp, .ply or .obj)");
+        Mesh m = vdb_mesh(tree, tape);
+        if (!strcasecmp(e, ".vtp"))
+            vtk_write_vtp(m, meta, path);
+        else if (!strcasecmp(e, ".ply"))
+            write_ply(m, meta, path);
+        else
+            write_obj(m, meta, path);
+    });
+}
+
+int exp_info(const char *path, FILE *out, ivoct_error_t *err)
+{
+    Format fmt = sniff(path);
+    if (fmt == Format::none)
+        return 1;
+    return guard(err, [&] {
+        if (fmt == Format::vdb)
+            vdb_info(path, out);
+        else
+            vtk_info(path, out);
+    });
+}
+
+}  // extern "C"

@@ -1,0 +1,107 @@
+/* ivoct — writing an octree for VTK, ParaView and OpenVDB (prefix exp_).
+ *
+ * The writers read a built octree (and, where they need values of f the tree
+ * does not store, its tape) and never change it.  They are C++17 inside
+ * (VTK and OpenVDB are C++ libraries) behind this C interface: every C++
+ * exception is caught here and becomes an error, and nothing is printed.
+ *
+ * Every file is written to a temporary name beside the destination and
+ * renamed once complete (io/io.h), so a failure never leaves a partial file;
+ * a device (/dev/full, /dev/stdout) is written in place.
+ *
+ * All functions return 0 on success, non-zero with err set on failure
+ * ("cannot write PATH: reason", "out of memory", ...).
+ */
+#ifndef IVOCT_EXPORT_H
+#define IVOCT_EXPORT_H
+
+#include <stddef.h>
+#include <stdio.h>
+
+#include "../expr/error.h"
+#include "../expr/tape.h"
+#include "../octree/octree.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* What the scene was, stored in the files' metadata (field data in VTK files,
+ * file and grid metadata in .vdb).  Any pointer may be NULL; the whole record
+ * may be NULL. */
+typedef struct exp_meta {
+    const char *name;         /* scene name */
+    const char *f;            /* the expression of f as written */
+    size_t n_lets;            /* named subexpressions f may use (let.NAME = TEXT) */
+    char *const *let_names;
+    char *const *let_texts;
+} exp_meta_t;
+
+/* Half width of the narrow band of the sdf grid, in voxels (OpenVDB's default). */
+#define EXP_SDF_HALF_WIDTH 3
+
+/* .vtu: an UnstructuredGrid of the surface leaves as VTK_VOXEL cells (points
+ * shared between neighbours, coordinates the exact doubles of oct_coord), in
+ * leaf (Morton) order, cell data
+ *   depth (Int32), f_lo, f_hi, error_bound (Float64: oct_leaf_error_bound),
+ *   normal (3 x Float64, the slab's unit normal, 0 0 0 for a leaf without one;
+ *           only when the tree has slabs),
+ * field data scene, f, lets (strings), box (6 doubles), depth (Int32). */
+int exp_vtu(const oct_tree_t *tree, const exp_meta_t *meta, const char *path,
+            ivoct_error_t *err);
+
+/* .htg: a HyperTreeGrid of the whole octree: the root split into a 2x2x2 grid
+ * of trees (one tree, the root, when the root is not split), every node a cell,
+ * coarse ones included, cell data
+ *   depth (Int32, depth in the octree: the trees' roots are depth 1),
+ *   f_center (Float64, f at the cell's centre, point evaluation),
+ *   f_lo, f_hi (Float64, an enclosure of f over the cell: the leaf's own for a
+ *               surface leaf, else the interval evaluation of the whole tape),
+ *   surface (UInt8: 1 for a surface leaf and for a split cell with a surface
+ *            leaf below, else 0),
+ *   class (Int8: 0 inside, 1 outside, 2 undefined (empty leaves, oct_class_t),
+ *          3 surface leaf, 4 split),
+ * and the field data of the .vtu.  Written in VTK's binary (not appended) mode:
+ * VTK 9.1's appended mode writes .htg files it cannot read back. */
+int exp_htg(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+            const char *path, ivoct_error_t *err);
+
+/* .vdb: two FloatGrids on the voxels of the max depth D (voxel (i, j, k) is the
+ * depth-D cell (i, j, k); the transform maps index space onto the scene box,
+ * voxel centres at integer coordinates):
+ *   surface  active where a surface leaf is: a leaf of depth d is a filled
+ *            region (a tile where aligned) of 8^(D-d) voxels, value d;
+ *            background 0;
+ *   sdf      a narrow-band level set (grid class level set, background
+ *            EXP_SDF_HALF_WIDTH voxels): active voxels are the surface leaves
+ *            dilated by EXP_SDF_HALF_WIDTH voxels (within the box), valued with
+ *            the first-order distance estimate f / |grad f| at the voxel
+ *            centre, clamped to the background; the sign of every voxel
+ *            outside the surface leaves, active or not, is the octree's
+ *            certified class (inside negative; outside, undefined and beyond
+ *            the box positive).
+ * File and grid metadata: scene, expression, let.NAME, box_min, box_max
+ * (vec3d), depth (int), creator. */
+int exp_vdb(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+            const char *path, ivoct_error_t *err);
+
+/* A triangle mesh of the surface, extracted by OpenVDB's volumeToMesh at
+ * isovalue 0 from the sdf grid of exp_vdb (quads split in two), in world
+ * coordinates.  The format follows the extension: .vtp (VTK PolyData), .ply
+ * (binary little-endian), .obj.  Outward-facing triangles. */
+int exp_mesh(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+             const char *path, ivoct_error_t *err);
+
+/* Is path's extension one exp_mesh writes? */
+int exp_mesh_supported(const char *path);
+
+/* Summarise a .vtu, .htg or .vdb file (recognised by content, not by name) on
+ * out.  Returns 0 when done, 1 when the file is none of these (nothing
+ * printed, err untouched: the caller may try other formats), -1 with err set
+ * when it is one of them but cannot be read. */
+int exp_info(const char *path, FILE *out, ivoct_error_t *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

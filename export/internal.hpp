@@ -1,0 +1,88 @@
+// ivoct export/ — what the translation units share (internal to export/).
+//
+// vtk.cpp holds everything that includes VTK, vdb.cpp everything that includes
+// OpenVDB (slow to compile: one file), common.cpp what needs neither.  They
+// meet here through plain types.
+#ifndef IVOCT_EXPORT_INTERNAL_HPP
+#define IVOCT_EXPORT_INTERNAL_HPP
+
+#include <cstdint>
+#include <cstdio>
+#include <new>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "export.h"
+#include "io/io.h"
+
+namespace ivexp {
+
+// A failure with its message: thrown inside export/, caught at the C boundary.
+struct Error : std::runtime_error {
+    explicit Error(const std::string &m) : std::runtime_error(m) {}
+};
+
+// Run body; turn any exception into err and -1.  Every exp_* function is one
+// call of this, so no exception crosses into C.
+template <class F> int guard(ivoct_error_t *err, F &&body) noexcept
+{
+    try {
+        body();
+        return 0;
+    } catch (const std::bad_alloc &) {
+        ivoct_error_set(err, "out of memory");
+    } catch (const std::exception &e) {
+        ivoct_error_set(err, "%s", e.what());
+    } catch (...) {
+        ivoct_error_set(err, "unexpected error");
+    }
+    return -1;
+}
+
+// An output file opened with io_open; aborted (temporary removed) unless
+// committed.
+class Output {
+public:
+    explicit Output(const char *path);
+    ~Output();
+    Output(const Output &) = delete;
+    Output &operator=(const Output &) = delete;
+    FILE *file() { return f_.f; }
+    const char *path() const { return path_.c_str(); }
+    void write(const void *data, size_t n);
+    void commit();  // throws Error naming the path and the reason
+private:
+    io_file_t f_;
+    bool open_ = false;
+    std::string path_;
+};
+
+// A triangle mesh in world coordinates, triangles facing outwards.
+struct Mesh {
+    std::vector<float> points;     // x y z per vertex
+    std::vector<uint32_t> tris;    // 3 vertex indices per triangle
+};
+
+// The key=value pairs of the metadata, in a fixed order.
+struct MetaItem {
+    std::string key, value;
+};
+std::vector<MetaItem> meta_strings(const exp_meta_t *meta);
+
+// vdb.cpp
+void vdb_write(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+               const char *path);
+Mesh vdb_mesh(const oct_tree_t *tree, const tape_t *tape);
+void vdb_info(const char *path, FILE *out);
+
+// vtk.cpp
+void vtk_write_vtu(const oct_tree_t *tree, const exp_meta_t *meta, const char *path);
+void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+                   const char *path);
+void vtk_write_vtp(const Mesh &mesh, const exp_meta_t *meta, const char *path);
+void vtk_info(const char *path, FILE *out);
+
+}  // namespace ivexp
+
+#endif

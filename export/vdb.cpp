@@ -1,0 +1,320 @@
+// ivoct export/ — the OpenVDB side: the surface and sdf grids, the mesh
+// extracted from sdf, and reading .vdb files back for `ivoct info`.  The only
+// file that includes OpenVDB (its headers are slow to compile).
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <ostream>
+#include <streambuf>
+
+#include <openvdb/openvdb.h>
+#include <openvdb/io/File.h>
+#include <openvdb/io/Stream.h>
+#include <openvdb/tools/Morphology.h>
+#include <openvdb/tools/Prune.h>
+#include <openvdb/tools/VolumeToMesh.h>
+
+#include "internal.hpp"
+
+namespace ivexp {
+namespace {
+
+using openvdb::Coord;
+using openvdb::CoordBBox;
+using openvdb::FloatGrid;
+using openvdb::Vec3d;
+
+// A std::ostream onto the FILE* of an io_file_t: OpenVDB writes into the
+// temporary file, io_commit checks, closes and renames it.
+class FileBuf : public std::streambuf {
+public:
+    explicit FileBuf(FILE *f) : f_(f) {}
+
+protected:
+    int_type overflow(int_type c) override
+    {
+        if (traits_type::eq_int_type(c, traits_type::eof()))
+            return traits_type::not_eof(c);
+        return std::fputc(c, f_) == EOF ? traits_type::eof() : c;
+    }
+    std::streamsize xsputn(const char *s, std::streamsize n) override
+    {
+        return (std::streamsize)std::fwrite(s, 1, (size_t)n, f_);
+    }
+    int sync() override { return std::fflush(f_) == 0 ? 0 : -1; }
+
+private:
+    FILE *f_;
+};
+
+struct Workspace {
+    explicit Workspace(const tape_t *t) : ws(tape_ws_new(t->n))
+    {
+        if (!ws)
+            throw std::bad_alloc();
+    }
+    ~Workspace() { tape_ws_free(ws); }
+    Workspace(const Workspace &) = delete;
+    Workspace &operator=(const Workspace &) = delete;
+    tape_ws_t *ws;
+};
+
+void init()
+{
+    openvdb::initialize();  // registers grid and metadata types; idempotent
+}
+
+// The grids' geometry: voxels are the cells of the max depth D.
+struct Frame {
+    int D;
+    uint32_t n;       // 2^D voxels per axis
+    double lo[3], h[3];
+    openvdb::math::Transform::Ptr xf;
+
+    explicit Frame(const oct_tree_t *t) : D(t->depth), n(1u << t->depth)
+    {
+        for (int a = 0; a < 3; a++) {
+            lo[a] = t->box[2 * a];
+            h[a] = (t->box[2 * a + 1] - t->box[2 * a]) / (double)n;
+            if (!(h[a] > 0) || !std::isfinite(h[a]))
+                throw Error("the box has no volume: no voxel grid can hold it");
+        }
+        // index (i, j, k) -> the centre of depth-D cell (i, j, k)
+        xf = openvdb::math::Transform::createLinearTransform(1.0);
+        xf->preScale(Vec3d(h[0], h[1], h[2]));
+        xf->postTranslate(Vec3d(lo[0] + 0.5 * h[0], lo[1] + 0.5 * h[1], lo[2] + 0.5 * h[2]));
+    }
+    double max_h() const { return std::max(h[0], std::max(h[1], h[2])); }
+};
+
+// The voxels of a cell of depth d: its region at depth D.
+CoordBBox cell_voxels(int D, int d, uint32_t ix, uint32_t iy, uint32_t iz)
+{
+    int32_t s = (int32_t)1 << (D - d);
+    Coord a((int32_t)ix * s, (int32_t)iy * s, (int32_t)iz * s);
+    return CoordBBox(a, a.offsetBy(s - 1));
+}
+
+FloatGrid::Ptr surface_grid(const oct_tree_t *t, const Frame &fr)
+{
+    FloatGrid::Ptr g = FloatGrid::create(0.0f);
+    g->setName("surface");
+    g->setTransform(fr.xf->copy());
+    auto &tree = g->tree();
+    auto acc = g->getAccessor();
+    for (uint32_t i = 0; i < t->n_leaves; i++) {
+        const oct_leaf_t &l = t->leaves[i];
+        uint32_t ix, iy, iz;
+        oct_unmorton(l.code, l.depth, &ix, &iy, &iz);
+        if (l.depth == fr.D)
+            acc.setValueOn(Coord((int32_t)ix, (int32_t)iy, (int32_t)iz), (float)l.depth);
+        else  // a tile where aligned to a node, voxels elsewhere
+            tree.fill(cell_voxels(fr.D, l.depth, ix, iy, iz), (float)l.depth, true);
+    }
+    return g;
+}
+
+// Mark the empty cells of class inside with the inactive value -bg (the
+// background, +bg, stands for outside).
+void fill_inside(const oct_tree_t *t, const Frame &fr, FloatGrid &g, float bg, uint32_t node,
+                 int d, uint32_t ix, uint32_t iy, uint32_t iz)
+{
+    oct_node_t w = t->nodes[node];
+    if (OCT_NODE_KIND(w) == OCT_INTERIOR) {
+        uint32_t first = OCT_NODE_VALUE(w);
+        for (uint32_t c = 0; c < 8; c++)
+            fill_inside(t, fr, g, bg, first + c, d + 1, 2 * ix + (c & 1), 2 * iy + (c >> 1 & 1),
+                        2 * iz + (c >> 2 & 1));
+    } else if (OCT_NODE_KIND(w) == OCT_EMPTY && OCT_NODE_VALUE(w) == OCT_INSIDE) {
+        if (d == fr.D)
+            g.tree().setValueOff(Coord((int32_t)ix, (int32_t)iy, (int32_t)iz), -bg);
+        else
+            g.tree().fill(cell_voxels(fr.D, d, ix, iy, iz), -bg, false);
+    }
+}
+
+// The narrow-band level set; see export.h.
+FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr,
+                        const FloatGrid &surface)
+{
+    const float bg = (float)(EXP_SDF_HALF_WIDTH * fr.max_h());
+    FloatGrid::Ptr g = FloatGrid::create(bg);
+    g->setName("sdf");
+    g->setGridClass(openvdb::GRID_LEVEL_SET);
+    g->setTransform(fr.xf->copy());
+    fill_inside(t, fr, *g, bg, 0, 0, 0, 0, 0);
+
+    // the band: the surface leaves dilated by the half width, within the box
+    openvdb::MaskTree band(surface.tree(), false, openvdb::TopologyCopy());
+    openvdb::tools::dilateActiveValues(band, EXP_SDF_HALF_WIDTH, openvdb::tools::NN_FACE_EDGE_VERTEX,
+                                       openvdb::tools::EXPAND_TILES);
+    band.clip(CoordBBox(Coord(0), Coord((int32_t)fr.n - 1)));
+    g->tree().topologyUnion(band);
+    g->tree().voxelizeActiveTiles();
+
+    // values at the voxel centres: f / |grad f|, clamped; outside the surface
+    // leaves the sign is the octree's class (the value the voxel had: -bg or bg)
+    std::vector<Coord> coords;
+    std::vector<signed char> sign;  // 0: in a surface leaf
+    coords.reserve(g->tree().activeVoxelCount());
+    auto sacc = surface.getConstAccessor();
+    for (auto it = g->tree().cbeginValueOn(); it; ++it) {
+        coords.push_back(it.getCoord());
+        sign.push_back(sacc.isValueOn(it.getCoord()) ? 0 : *it < 0 ? -1 : 1);
+    }
+    const size_t n = coords.size(), chunk = 4096;
+    std::vector<float> value(n);
+    std::vector<iv_box_t> boxes(chunk);
+    std::vector<iv_grad_t> out(chunk);
+    Workspace ws(tape);
+    for (size_t s = 0; s < n; s += chunk) {
+        size_t m = std::min(chunk, n - s);
+        for (size_t k = 0; k < m; k++) {
+            const Coord &c = coords[s + k];
+            double p[3];
+            for (int a = 0; a < 3; a++)
+                p[a] = fr.lo[a] + ((double)c[a] + 0.5) * fr.h[a];
+            boxes[k] = iv_box_t{iv_point(p[0]), iv_point(p[1]), iv_point(p[2])};
+        }
+        tape_eval_grad(tape, ws.ws, m, boxes.data(), out.data());
+        for (size_t k = 0; k < m; k++) {
+            const iv_grad_t &q = out[k];
+            double f = iv_mid(q.v);
+            double gx = iv_mid(q.dx), gy = iv_mid(q.dy), gz = iv_mid(q.dz);
+            double gn = std::sqrt(gx * gx + gy * gy + gz * gz);
+            double d = gn > 0 && std::isfinite(gn) ? f / gn : f > 0 ? bg : f < 0 ? -bg : 0;
+            if (std::isnan(d))  // f undefined here: outside
+                d = bg;
+            d = std::max(-(double)bg, std::min((double)bg, d));
+            int cls = sign[s + k];
+            if (cls != 0 && !(d * cls > 0))  // the certified class wins; keep |d| if any
+                d = cls * std::max(std::fabs(d), 1e-3 * fr.max_h());
+            value[s + k] = (float)d;
+        }
+    }
+    size_t k = 0;
+    for (auto it = g->tree().beginValueOn(); it; ++it)
+        it.setValue(value[k++]);
+    if (k != n)
+        throw Error("sdf: the band changed while it was filled");
+    openvdb::tools::pruneLevelSet(g->tree());
+    return g;
+}
+
+openvdb::MetaMap metadata(const oct_tree_t *t, const exp_meta_t *meta)
+{
+    openvdb::MetaMap m;
+    for (const MetaItem &it : meta_strings(meta))
+        m.insertMeta(it.key, openvdb::StringMetadata(it.value));
+    m.insertMeta("box_min", openvdb::Vec3DMetadata(Vec3d(t->box[0], t->box[2], t->box[4])));
+    m.insertMeta("box_max", openvdb::Vec3DMetadata(Vec3d(t->box[1], t->box[3], t->box[5])));
+    m.insertMeta("depth", openvdb::Int32Metadata(t->depth));
+    return m;
+}
+
+}  // namespace
+
+void vdb_write(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+               const char *path)
+{
+    init();
+    Frame fr(tree);
+    FloatGrid::Ptr surface = surface_grid(tree, fr);
+    FloatGrid::Ptr sdf = sdf_grid(tree, tape, fr, *surface);
+    openvdb::MetaMap m = metadata(tree, meta);
+    openvdb::GridPtrVec grids{surface, sdf};
+    for (auto &g : grids) {
+        for (auto it = m.beginMeta(); it != m.endMeta(); ++it)
+            g->insertMeta(it->first, *it->second);
+    }
+    Output out(path);
+    FileBuf buf(out.file());
+    std::ostream os(&buf);
+    openvdb::io::Stream(os).write(grids, m);
+    os.flush();
+    if (!os)
+        throw Error(std::string("cannot write ") + path + ": " +
+                    std::strerror(errno ? errno : EIO));
+    out.commit();
+}
+
+Mesh vdb_mesh(const oct_tree_t *tree, const tape_t *tape)
+{
+    init();
+    Frame fr(tree);
+    FloatGrid::Ptr surface = surface_grid(tree, fr);
+    FloatGrid::Ptr sdf = sdf_grid(tree, tape, fr, *surface);
+    surface.reset();
+    std::vector<openvdb::Vec3s> points;
+    std::vector<openvdb::Vec3I> tris;
+    std::vector<openvdb::Vec4I> quads;
+    openvdb::tools::volumeToMesh(*sdf, points, tris, quads, 0.0, 0.0);
+    Mesh m;
+    m.points.reserve(3 * points.size());
+    for (const auto &p : points)
+        m.points.insert(m.points.end(), {p[0], p[1], p[2]});
+    // volumeToMesh winds its polygons clockwise seen from outside (inside is
+    // negative): reversed here so that they face outwards
+    m.tris.reserve(3 * (tris.size() + 2 * quads.size()));
+    for (const auto &t : tris)
+        m.tris.insert(m.tris.end(), {t[0], t[2], t[1]});
+    for (const auto &q : quads) {
+        m.tris.insert(m.tris.end(), {q[0], q[2], q[1]});
+        m.tris.insert(m.tris.end(), {q[0], q[3], q[2]});
+    }
+    return m;
+}
+
+void vdb_info(const char *path, FILE *out)
+{
+    init();
+    openvdb::io::File file(path);
+    openvdb::GridPtrVecPtr grids;
+    openvdb::MetaMap::Ptr meta;
+    try {
+        file.open(false);
+        meta = file.getMetadata();
+        grids = file.getGrids();
+        file.close();
+    } catch (const std::exception &e) {
+        throw Error(std::string("cannot read ") + path + ": " + e.what());
+    }
+    if (!grids || !meta)
+        throw Error(std::string("cannot read ") + path + ": no grids");
+    std::fprintf(out, "file:     %s (OpenVDB, format version %u)\n", path, file.fileVersion());
+    auto str = [&](const char *key) -> std::string {
+        auto m = meta->getMetadata<openvdb::StringMetadata>(key);
+        return m ? m->value() : std::string();
+    };
+    if (!str("scene").empty())
+        std::fprintf(out, "scene:    %s\n", str("scene").c_str());
+    for (auto it = meta->beginMeta(); it != meta->endMeta(); ++it)
+        if (it->first.rfind("let.", 0) == 0)
+            std::fprintf(out, "let:      %s = %s\n", it->first.c_str() + 4, it->second->str().c_str());
+    if (!str("expression").empty())
+        std::fprintf(out, "f:        %s\n", str("expression").c_str());
+    auto lo = meta->getMetadata<openvdb::Vec3DMetadata>("box_min");
+    auto hi = meta->getMetadata<openvdb::Vec3DMetadata>("box_max");
+    if (lo && hi)
+        std::fprintf(out, "box:      [%.17g, %.17g] x [%.17g, %.17g] x [%.17g, %.17g]\n",
+                     lo->value()[0], hi->value()[0], lo->value()[1], hi->value()[1],
+                     lo->value()[2], hi->value()[2]);
+    if (auto d = meta->getMetadata<openvdb::Int32Metadata>("depth"))
+        std::fprintf(out, "depth:    %d\n", d->value());
+    std::fprintf(out, "grids:    %zu\n", grids->size());
+    for (const auto &g : *grids) {
+        Vec3d vs = g->voxelSize();
+        CoordBBox bb = g->evalActiveVoxelBoundingBox();
+        std::fprintf(out, "grid:     %s (%s, class %s): %llu active voxels", g->getName().c_str(),
+                     g->valueType().c_str(),
+                     openvdb::GridBase::gridClassToString(g->getGridClass()).c_str(),
+                     (unsigned long long)g->activeVoxelCount());
+        if (!bb.empty())
+            std::fprintf(out, ", index bbox [%d %d %d]..[%d %d %d]", bb.min()[0], bb.min()[1],
+                         bb.min()[2], bb.max()[0], bb.max()[1], bb.max()[2]);
+        std::fprintf(out, ", voxel %.17g x %.17g x %.17g\n", vs[0], vs[1], vs[2]);
+    }
+}
+
+}  // namespace ivexp

@@ -1,0 +1,658 @@
+// ivoct export/ — the VTK side: .vtu (surface leaves as voxels), .htg (the
+// whole octree as a HyperTreeGrid), .vtp meshes, and reading them back for
+// `ivoct info`.
+//
+// VTK writers are asked for a string (WriteToOutputString) which goes to the
+// file through io/io.h: one path for temporary names, devices and errors.
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <map>
+
+#include <vtkCellArray.h>
+#include <vtkCellData.h>
+#include <vtkCellType.h>
+#include <vtkCommand.h>
+#include <vtkDoubleArray.h>
+#include <vtkFieldData.h>
+#include <vtkFloatArray.h>
+#include <vtkHyperTree.h>
+#include <vtkHyperTreeGrid.h>
+#include <vtkHyperTreeGridNonOrientedCursor.h>
+#include <vtkIdTypeArray.h>
+#include <vtkIntArray.h>
+#include <vtkLogger.h>
+#include <vtkNew.h>
+#include <vtkObjectFactory.h>
+#include <vtkOutputWindow.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkSignedCharArray.h>
+#include <vtkSmartPointer.h>
+#include <vtkStringArray.h>
+#include <vtkUnsignedCharArray.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLHyperTreeGridReader.h>
+#include <vtkXMLHyperTreeGridWriter.h>
+#include <vtkXMLPolyDataReader.h>
+#include <vtkXMLPolyDataWriter.h>
+#include <vtkXMLUnstructuredGridReader.h>
+#include <vtkXMLUnstructuredGridWriter.h>
+
+#include "internal.hpp"
+
+namespace ivexp {
+namespace {
+
+// ---- errors ---------------------------------------------------------------------------
+// VTK prints its errors (vtkOutputWindow, and vtkLogger on stderr) unless the
+// object that has one has an ErrorEvent observer.  While ivoct's code runs,
+// the object watched has an observer, and every other object's text goes to
+// a window of ours; the first error of either is the message.
+
+// "ERROR: In FILE, line N\nCLASS (0x...): text\n\n" -> "text", on one line
+std::string vtk_message(const char *text)
+{
+    std::string m = text ? text : "";
+    size_t p = m.find("): ");
+    if (p != std::string::npos)
+        m = m.substr(p + 3);
+    while (!m.empty() && std::isspace((unsigned char)m.back()))
+        m.pop_back();
+    for (char &c : m)
+        if (c == '\n')
+            c = ' ';
+    return m;
+}
+
+class Catcher : public vtkCommand {
+public:
+    static Catcher *New() { return new Catcher; }
+    void Execute(vtkObject *, unsigned long event, void *data) override
+    {
+        if (event != vtkCommand::ErrorEvent || !message.empty())
+            return;
+        // readers signal a failed read with an event and no text
+        message = data ? vtk_message(static_cast<const char *>(data)) : "truncated or corrupt";
+    }
+    std::string message;
+};
+
+class Window : public vtkOutputWindow {
+public:
+    static Window *New();
+    vtkTypeMacro(Window, vtkOutputWindow)
+    void DisplayText(const char *) override {}
+    void DisplayErrorText(const char *text) override
+    {
+        if (message.empty())
+            message = vtk_message(text);
+    }
+    void DisplayWarningText(const char *) override {}
+    void DisplayGenericWarningText(const char *) override {}
+    void DisplayDebugText(const char *) override {}
+    std::string message;
+};
+vtkStandardNewMacro(Window);
+
+class Quiet {
+public:
+    explicit Quiet(vtkObject *watched) : watched_(watched), previous_(vtkOutputWindow::GetInstance())
+    {
+        // VTK's logger would print errors on stderr before any window sees them;
+        // nothing else in ivoct logs through it
+        vtkLogger::SetStderrVerbosity(vtkLogger::VERBOSITY_OFF);
+        if (previous_)
+            previous_->Register(nullptr);
+        vtkOutputWindow::SetInstance(window_);
+        tag_ = watched_->AddObserver(vtkCommand::ErrorEvent, catcher_);
+        tag2_ = watched_->AddObserver(vtkCommand::WarningEvent, catcher_);
+    }
+    ~Quiet()
+    {
+        watched_->RemoveObserver(tag_);
+        watched_->RemoveObserver(tag2_);
+        vtkOutputWindow::SetInstance(previous_);
+        if (previous_)
+            previous_->UnRegister(nullptr);
+    }
+    Quiet(const Quiet &) = delete;
+    Quiet &operator=(const Quiet &) = delete;
+    std::string message() const
+    {
+        return !catcher_->message.empty() ? catcher_->message : window_->message;
+    }
+
+private:
+    vtkObject *watched_;
+    vtkOutputWindow *previous_;
+    vtkNew<Catcher> catcher_;
+    vtkNew<Window> window_;
+    unsigned long tag_, tag2_;
+};
+
+// ---- helpers --------------------------------------------------------------------------
+iv_box_t cell_box(const oct_tree_t *t, int depth, uint32_t ix, uint32_t iy, uint32_t iz)
+{
+    return oct_cell_box(t->box, depth, ix, iy, iz);
+}
+
+void add_field_data(vtkFieldData *fd, const oct_tree_t *tree, const exp_meta_t *meta)
+{
+    for (const MetaItem &m : meta_strings(meta)) {
+        vtkNew<vtkStringArray> a;
+        a->SetName(m.key.c_str());
+        a->InsertNextValue(m.value);
+        fd->AddArray(a);
+    }
+    vtkNew<vtkDoubleArray> box;
+    box->SetName("box");
+    box->SetNumberOfValues(6);
+    for (int i = 0; i < 6; i++)
+        box->SetValue(i, tree->box[i]);
+    fd->AddArray(box);
+    vtkNew<vtkIntArray> depth;
+    depth->SetName("depth");
+    depth->InsertNextValue(tree->depth);
+    fd->AddArray(depth);
+}
+
+template <class Writer> void write_xml(Writer *w, vtkDataObject *data, const char *path)
+{
+    Quiet q(w);
+    w->SetInputData(data);
+    w->SetWriteToOutputString(true);
+    w->SetHeaderTypeToUInt64();
+    w->SetCompressorTypeToZLib();
+    if (!w->Write()) {
+        std::string m = q.message();
+        throw Error(std::string("cannot write ") + path + ": " + (m.empty() ? "VTK writer failed" : m));
+    }
+    Output out(path);
+    std::string s = w->GetOutputString();
+    out.write(s.data(), s.size());
+    out.commit();
+}
+
+struct Corner {
+    uint32_t x, y, z;
+    bool operator<(const Corner &o) const
+    {
+        return z != o.z ? z < o.z : y != o.y ? y < o.y : x < o.x;
+    }
+    bool operator==(const Corner &o) const { return x == o.x && y == o.y && z == o.z; }
+};
+
+// A tape workspace that frees itself.
+struct Workspace {
+    explicit Workspace(const tape_t *t) : ws(tape_ws_new(t->n))
+    {
+        if (!ws)
+            throw std::bad_alloc();
+    }
+    ~Workspace() { tape_ws_free(ws); }
+    Workspace(const Workspace &) = delete;
+    Workspace &operator=(const Workspace &) = delete;
+    tape_ws_t *ws;
+};
+
+}  // namespace
+
+// ---- .vtu -----------------------------------------------------------------------------
+void vtk_write_vtu(const oct_tree_t *tree, const exp_meta_t *meta, const char *path)
+{
+    const int D = tree->depth;
+    const size_t n = tree->n_leaves;
+    // corners in integer coordinates of the max depth, shared between neighbours
+    std::vector<Corner> corners(8 * n);
+    for (size_t i = 0; i < n; i++) {
+        const oct_leaf_t &l = tree->leaves[i];
+        uint32_t ix, iy, iz;
+        oct_unmorton(l.code, l.depth, &ix, &iy, &iz);
+        uint32_t s = 1u << (D - l.depth);
+        for (int c = 0; c < 8; c++)  // VTK_VOXEL order: x fastest, then y, then z
+            corners[8 * i + c] = {(ix + (c & 1)) * s, (iy + (c >> 1 & 1)) * s,
+                                  (iz + (c >> 2 & 1)) * s};
+    }
+    std::vector<Corner> unique(corners);
+    std::sort(unique.begin(), unique.end());
+    unique.erase(std::unique(unique.begin(), unique.end()), unique.end());
+
+    vtkNew<vtkPoints> points;
+    points->SetDataTypeToDouble();
+    points->SetNumberOfPoints((vtkIdType)unique.size());
+    for (size_t p = 0; p < unique.size(); p++)
+        points->SetPoint((vtkIdType)p, oct_coord(tree->box[0], tree->box[1], unique[p].x, D),
+                         oct_coord(tree->box[2], tree->box[3], unique[p].y, D),
+                         oct_coord(tree->box[4], tree->box[5], unique[p].z, D));
+
+    vtkNew<vtkIdTypeArray> offsets, connectivity;
+    offsets->SetNumberOfValues((vtkIdType)n + 1);
+    connectivity->SetNumberOfValues((vtkIdType)(8 * n));
+    for (size_t i = 0; i <= n; i++)
+        offsets->SetValue((vtkIdType)i, (vtkIdType)(8 * i));
+    for (size_t k = 0; k < 8 * n; k++)
+        connectivity->SetValue(
+            (vtkIdType)k,
+            (vtkIdType)(std::lower_bound(unique.begin(), unique.end(), corners[k]) - unique.begin()));
+    std::vector<Corner>().swap(corners);
+    vtkNew<vtkCellArray> cells;
+    cells->SetData(offsets, connectivity);
+    vtkNew<vtkUnsignedCharArray> types;
+    types->SetNumberOfValues((vtkIdType)n);
+    types->FillValue(VTK_VOXEL);
+
+    vtkNew<vtkUnstructuredGrid> ug;
+    ug->SetPoints(points);
+    ug->SetCells(types, cells);
+
+    vtkNew<vtkIntArray> depth;
+    vtkNew<vtkDoubleArray> f_lo, f_hi, error_bound;
+    depth->SetName("depth");
+    f_lo->SetName("f_lo");
+    f_hi->SetName("f_hi");
+    error_bound->SetName("error_bound");
+    for (vtkDataArray *a : {(vtkDataArray *)depth, (vtkDataArray *)f_lo, (vtkDataArray *)f_hi,
+                            (vtkDataArray *)error_bound})
+        a->SetNumberOfTuples((vtkIdType)n);
+    for (uint32_t i = 0; i < n; i++) {
+        const oct_leaf_t &l = tree->leaves[i];
+        depth->SetValue(i, l.depth);
+        f_lo->SetValue(i, l.f_lo);
+        f_hi->SetValue(i, l.f_hi);
+        error_bound->SetValue(i, oct_leaf_error_bound(tree, i));
+    }
+    vtkCellData *cd = ug->GetCellData();
+    cd->AddArray(depth);
+    cd->AddArray(f_lo);
+    cd->AddArray(f_hi);
+    cd->AddArray(error_bound);
+    if (tree->slabs) {
+        vtkNew<vtkDoubleArray> normal;
+        normal->SetName("normal");
+        normal->SetNumberOfComponents(3);
+        normal->SetNumberOfTuples((vtkIdType)n);
+        for (uint32_t i = 0; i < n; i++)
+            normal->SetTuple(i, tree->slabs[i].n);
+        cd->AddArray(normal);
+    }
+    cd->SetActiveScalars("depth");
+    add_field_data(ug->GetFieldData(), tree, meta);
+
+    vtkNew<vtkXMLUnstructuredGridWriter> w;
+    w->SetDataModeToAppended();
+    w->EncodeAppendedDataOff();
+    write_xml(w.Get(), ug, path);
+}
+
+// ---- .htg -----------------------------------------------------------------------------
+namespace {
+
+enum { CLASS_SURFACE = 3, CLASS_SPLIT = 4 };
+
+struct HtgNode {
+    uint32_t node;  // index in tree->nodes
+    uint8_t depth;
+    uint32_t ix, iy, iz;
+};
+
+// Mirrors the octree below one node into the hyper tree under the cursor,
+// recording for each new vertex (by global index) which node it is.
+struct HtgBuilder {
+    const oct_tree_t *tree;
+    std::vector<HtgNode> &out;
+    std::vector<uint8_t> &surface;
+
+    bool visit(vtkHyperTreeGridNonOrientedCursor *cur, const HtgNode &n)
+    {
+        vtkIdType id = cur->GetGlobalNodeIndex();
+        if ((size_t)id >= out.size()) {
+            out.resize((size_t)id + 1);
+            surface.resize((size_t)id + 1);
+        }
+        out[(size_t)id] = n;
+        oct_node_t w = tree->nodes[n.node];
+        bool has_surface = OCT_NODE_KIND(w) == OCT_LEAF;
+        if (OCT_NODE_KIND(w) == OCT_INTERIOR) {
+            uint32_t first = OCT_NODE_VALUE(w);
+            cur->SubdivideLeaf();
+            for (unsigned c = 0; c < 8; c++) {
+                cur->ToChild((unsigned char)c);
+                HtgNode child = {first + c, (uint8_t)(n.depth + 1), 2 * n.ix + (c & 1),
+                                 2 * n.iy + (c >> 1 & 1), 2 * n.iz + (c >> 2 & 1)};
+                has_surface = visit(cur, child) || has_surface;
+                cur->ToParent();
+            }
+        }
+        surface[(size_t)id] = has_surface;
+        return has_surface;
+    }
+};
+
+}  // namespace
+
+void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+                   const char *path)
+{
+    vtkNew<vtkHyperTreeGrid> htg;
+    htg->SetBranchFactor(2);
+    const oct_node_t root = tree->nodes[0];
+    // the root's 8 children as a 2x2x2 grid of trees (HyperTreeGrid filters such as
+    // Contour work on a grid of trees); a root that is not split is one tree
+    const bool split = OCT_NODE_KIND(root) == OCT_INTERIOR;
+    const int cells = split ? 2 : 1;
+    htg->SetDimensions(cells + 1, cells + 1, cells + 1);
+    for (int axis = 0; axis < 3; axis++) {
+        vtkNew<vtkDoubleArray> c;
+        c->SetNumberOfValues(cells + 1);
+        for (int i = 0; i <= cells; i++)
+            c->SetValue(i, oct_coord(tree->box[2 * axis], tree->box[2 * axis + 1], (uint64_t)i,
+                                     split ? 1 : 0));
+        if (axis == 0)
+            htg->SetXCoordinates(c);
+        else if (axis == 1)
+            htg->SetYCoordinates(c);
+        else
+            htg->SetZCoordinates(c);
+    }
+
+    std::vector<HtgNode> nodes;
+    std::vector<uint8_t> surface;
+    nodes.reserve(tree->n_nodes);
+    surface.reserve(tree->n_nodes);
+    HtgBuilder b{tree, nodes, surface};
+    vtkNew<vtkHyperTreeGridNonOrientedCursor> cur;
+    vtkIdType start = 0;
+    for (int c = 0; c < (split ? 8 : 1); c++) {
+        vtkIdType treeId;
+        htg->GetIndexFromLevelZeroCoordinates(treeId, (unsigned)(c & 1), (unsigned)(c >> 1 & 1),
+                                              (unsigned)(c >> 2 & 1));
+        htg->InitializeNonOrientedCursor(cur, treeId, true);
+        cur->SetGlobalIndexStart(start);
+        HtgNode n = split ? HtgNode{OCT_NODE_VALUE(root) + (uint32_t)c, 1, (uint32_t)(c & 1),
+                                    (uint32_t)(c >> 1 & 1), (uint32_t)(c >> 2 & 1)}
+                          : HtgNode{0, 0, 0, 0, 0};
+        b.visit(cur, n);
+        start += cur->GetTree()->GetNumberOfVertices();
+    }
+    const size_t total = (size_t)start;
+    if (nodes.size() != total)
+        throw Error("HyperTreeGrid: unexpected node numbering");
+
+    // f over every cell, and at its centre, in one pass each
+    std::vector<iv_box_t> boxes(total);
+    std::vector<double> cx(total), cy(total), cz(total), fc(total);
+    std::vector<iv_t> fr(total);
+    for (size_t i = 0; i < total; i++) {
+        const HtgNode &n = nodes[i];
+        boxes[i] = cell_box(tree, n.depth, n.ix, n.iy, n.iz);
+        cx[i] = 0.5 * boxes[i].x.lo + 0.5 * boxes[i].x.hi;
+        cy[i] = 0.5 * boxes[i].y.lo + 0.5 * boxes[i].y.hi;
+        cz[i] = 0.5 * boxes[i].z.lo + 0.5 * boxes[i].z.hi;
+    }
+    {
+        Workspace ws(tape);
+        tape_eval_interval(tape, ws.ws, total, boxes.data(), fr.data());
+        tape_eval_point(tape, ws.ws, total, cx.data(), cy.data(), cz.data(), fc.data());
+    }
+
+    vtkNew<vtkIntArray> depth;
+    vtkNew<vtkDoubleArray> f_center, f_lo, f_hi;
+    vtkNew<vtkUnsignedCharArray> surf;
+    vtkNew<vtkSignedCharArray> cls;
+    depth->SetName("depth");
+    f_center->SetName("f_center");
+    f_lo->SetName("f_lo");
+    f_hi->SetName("f_hi");
+    surf->SetName("surface");
+    cls->SetName("class");
+    for (vtkDataArray *a : {(vtkDataArray *)depth, (vtkDataArray *)f_center, (vtkDataArray *)f_lo,
+                            (vtkDataArray *)f_hi, (vtkDataArray *)surf, (vtkDataArray *)cls})
+        a->SetNumberOfTuples((vtkIdType)total);
+    for (size_t i = 0; i < total; i++) {
+        vtkIdType id = (vtkIdType)i;
+        oct_node_t w = tree->nodes[nodes[i].node];
+        double lo = fr[i].lo, hi = fr[i].hi;
+        signed char k;
+        switch (OCT_NODE_KIND(w)) {
+        case OCT_LEAF: {
+            const oct_leaf_t &l = tree->leaves[OCT_NODE_VALUE(w)];
+            lo = l.f_lo, hi = l.f_hi;
+            k = CLASS_SURFACE;
+            break;
+        }
+        case OCT_INTERIOR:
+            k = CLASS_SPLIT;
+            break;
+        default:
+            k = (signed char)OCT_NODE_VALUE(w);
+            break;
+        }
+        depth->SetValue(id, nodes[i].depth);
+        f_center->SetValue(id, fc[i]);
+        f_lo->SetValue(id, lo);
+        f_hi->SetValue(id, hi);
+        surf->SetValue(id, surface[i]);
+        cls->SetValue(id, k);
+    }
+    vtkCellData *cd = htg->GetCellData();
+    cd->AddArray(depth);
+    cd->AddArray(f_center);
+    cd->AddArray(f_lo);
+    cd->AddArray(f_hi);
+    cd->AddArray(surf);
+    cd->AddArray(cls);
+    add_field_data(htg->GetFieldData(), tree, meta);
+
+    vtkNew<vtkXMLHyperTreeGridWriter> w;
+    w->SetDataModeToBinary();  // appended mode in VTK 9.1 writes files it cannot read
+    write_xml(w.Get(), htg, path);
+}
+
+// ---- .vtp -----------------------------------------------------------------------------
+void vtk_write_vtp(const Mesh &mesh, const exp_meta_t *meta, const char *path)
+{
+    const vtkIdType np = (vtkIdType)(mesh.points.size() / 3), nt = (vtkIdType)(mesh.tris.size() / 3);
+    vtkNew<vtkFloatArray> coords;
+    coords->SetNumberOfComponents(3);
+    coords->SetNumberOfTuples(np);
+    std::copy(mesh.points.begin(), mesh.points.end(), coords->GetPointer(0));
+    vtkNew<vtkPoints> points;
+    points->SetData(coords);
+    vtkNew<vtkIdTypeArray> offsets, connectivity;
+    offsets->SetNumberOfValues(nt + 1);
+    connectivity->SetNumberOfValues(3 * nt);
+    for (vtkIdType t = 0; t <= nt; t++)
+        offsets->SetValue(t, 3 * t);
+    for (vtkIdType k = 0; k < 3 * nt; k++)
+        connectivity->SetValue(k, (vtkIdType)mesh.tris[(size_t)k]);
+    vtkNew<vtkCellArray> polys;
+    polys->SetData(offsets, connectivity);
+    vtkNew<vtkPolyData> pd;
+    pd->SetPoints(points);
+    pd->SetPolys(polys);
+    for (const MetaItem &m : meta_strings(meta)) {
+        vtkNew<vtkStringArray> a;
+        a->SetName(m.key.c_str());
+        a->InsertNextValue(m.value);
+        pd->GetFieldData()->AddArray(a);
+    }
+    vtkNew<vtkXMLPolyDataWriter> w;
+    w->SetDataModeToAppended();
+    w->EncodeAppendedDataOff();
+    write_xml(w.Get(), pd, path);
+}
+
+// ---- info -----------------------------------------------------------------------------
+namespace {
+
+std::string xml_type(const char *path)
+{
+    std::ifstream in(path, std::ios::binary);
+    std::string head(1024, '\0');
+    in.read(&head[0], (std::streamsize)head.size());
+    head.resize((size_t)in.gcount());
+    size_t p = head.find("<VTKFile");
+    if (p == std::string::npos)
+        return "";
+    size_t t = head.find("type=\"", p);
+    if (t == std::string::npos)
+        return "";
+    t += 6;
+    size_t e = head.find('"', t);
+    return e == std::string::npos ? "" : head.substr(t, e - t);
+}
+
+template <class Reader> void read_xml(Reader *r, const char *path)
+{
+    Quiet q(r);
+    r->SetFileName(path);
+    r->Update();
+    std::string m = q.message();
+    if (!m.empty() || !r->GetOutput())
+        throw Error(std::string("cannot read ") + path + ": " +
+                    (m.empty() ? "not a valid VTK file" : m));
+}
+
+void print_field_data(FILE *out, vtkFieldData *fd)
+{
+    if (!fd)
+        return;
+    auto text = [&](const char *key) -> const char * {
+        auto *a = vtkStringArray::SafeDownCast(fd->GetAbstractArray(key));
+        return a && a->GetNumberOfValues() > 0 ? a->GetValue(0).c_str() : nullptr;
+    };
+    if (const char *s = text("scene"))
+        std::fprintf(out, "scene:    %s\n", s);
+    for (int i = 0; i < fd->GetNumberOfArrays(); i++) {
+        const char *name = fd->GetAbstractArray(i)->GetName();
+        const char *value = name && !std::strncmp(name, "let.", 4) ? text(name) : nullptr;
+        if (value)
+            std::fprintf(out, "let:      %s = %s\n", name + 4, value);
+    }
+    if (const char *s = text("expression"))
+        std::fprintf(out, "f:        %s\n", s);
+    auto *box = vtkDoubleArray::SafeDownCast(fd->GetArray("box"));
+    if (box && box->GetNumberOfValues() == 6)
+        std::fprintf(out, "box:      [%.17g, %.17g] x [%.17g, %.17g] x [%.17g, %.17g]\n",
+                     box->GetValue(0), box->GetValue(1), box->GetValue(2), box->GetValue(3),
+                     box->GetValue(4), box->GetValue(5));
+    auto *depth = vtkIntArray::SafeDownCast(fd->GetArray("depth"));
+    if (depth && depth->GetNumberOfValues() == 1)
+        std::fprintf(out, "depth:    %d\n", depth->GetValue(0));
+}
+
+void print_arrays(FILE *out, vtkFieldData *cd)
+{
+    std::fprintf(out, "arrays:  ");
+    for (int i = 0; i < cd->GetNumberOfArrays(); i++) {
+        vtkAbstractArray *a = cd->GetAbstractArray(i);
+        std::fprintf(out, " %s", a->GetName() ? a->GetName() : "?");
+        if (a->GetNumberOfComponents() > 1)
+            std::fprintf(out, "[%d]", a->GetNumberOfComponents());
+    }
+    std::fprintf(out, "\n");
+}
+
+// "leaves by depth: d:n ..." from a depth array over the cells where keep(i)
+template <class Keep>
+void print_by_depth(FILE *out, const char *label, vtkDataArray *depth, Keep keep)
+{
+    if (!depth)
+        return;
+    std::map<long, unsigned long long> count;
+    for (vtkIdType i = 0; i < depth->GetNumberOfTuples(); i++)
+        if (keep(i))
+            count[(long)depth->GetTuple1(i)]++;
+    std::fprintf(out, "%s:", label);
+    for (auto &c : count)
+        std::fprintf(out, " %ld:%llu", c.first, c.second);
+    if (count.empty())
+        std::fprintf(out, " none");
+    std::fprintf(out, "\n");
+}
+
+double max_of(vtkDataArray *a)
+{
+    double m = -INFINITY;
+    for (vtkIdType i = 0; a && i < a->GetNumberOfTuples(); i++)
+        m = std::max(m, a->GetTuple1(i));
+    return m;
+}
+
+}  // namespace
+
+void vtk_info(const char *path, FILE *out)
+{
+    std::string type = xml_type(path);
+    if (type == "UnstructuredGrid") {
+        vtkNew<vtkXMLUnstructuredGridReader> r;
+        read_xml(r.Get(), path);
+        vtkUnstructuredGrid *ug = r->GetOutput();
+        vtkCellData *cd = ug->GetCellData();
+        std::fprintf(out, "file:     %s (VTK UnstructuredGrid: surface leaves as voxels)\n", path);
+        print_field_data(out, ug->GetFieldData());
+        std::fprintf(out, "leaves:   %lld\n", (long long)ug->GetNumberOfCells());
+        std::fprintf(out, "points:   %lld\n", (long long)ug->GetNumberOfPoints());
+        print_by_depth(out, "leaves by depth", cd->GetArray("depth"), [](vtkIdType) { return true; });
+        vtkDataArray *e = cd->GetArray("error_bound");
+        if (e && e->GetNumberOfTuples() > 0)
+            std::fprintf(out, "max error bound: %.17g\n", max_of(e));
+        print_arrays(out, cd);
+    } else if (type == "HyperTreeGrid") {
+        vtkNew<vtkXMLHyperTreeGridReader> r;
+        read_xml(r.Get(), path);
+        vtkHyperTreeGrid *h = r->GetOutput();
+        vtkCellData *cd = h->GetCellData();
+        std::fprintf(out, "file:     %s (VTK HyperTreeGrid: the whole octree)\n", path);
+        print_field_data(out, h->GetFieldData());
+        // VTK 9.1's reader drops the field data: box and depth from the grid itself
+        if (!h->GetFieldData() || !h->GetFieldData()->GetArray("box")) {
+            vtkDataArray *c[3] = {h->GetXCoordinates(), h->GetYCoordinates(), h->GetZCoordinates()};
+            if (c[0] && c[1] && c[2] && c[0]->GetNumberOfTuples() > 0 &&
+                c[1]->GetNumberOfTuples() > 0 && c[2]->GetNumberOfTuples() > 0) {
+                std::fprintf(out, "box:     ");
+                for (int a = 0; a < 3; a++)
+                    std::fprintf(out, "%s[%.17g, %.17g]", a ? " x " : " ", c[a]->GetTuple1(0),
+                                 c[a]->GetTuple1(c[a]->GetNumberOfTuples() - 1));
+                std::fprintf(out, "\n");
+            }
+            if (vtkDataArray *d = cd->GetArray("depth"))
+                if (d->GetNumberOfTuples() > 0)
+                    std::fprintf(out, "depth:    %.0f\n", max_of(d));
+        }
+        unsigned dims[3];
+        h->GetCellDims(dims);
+        std::fprintf(out, "trees:    %u x %u x %u\n", dims[0], dims[1], dims[2]);
+        std::fprintf(out, "nodes:    %lld\n", (long long)h->GetNumberOfVertices());
+        std::fprintf(out, "leaves (all): %lld\n", (long long)h->GetNumberOfLeaves());
+        vtkDataArray *cls = cd->GetArray("class");
+        if (cls) {
+            unsigned long long n = 0;
+            for (vtkIdType i = 0; i < cls->GetNumberOfTuples(); i++)
+                n += cls->GetTuple1(i) == CLASS_SURFACE;
+            std::fprintf(out, "leaves:   %llu\n", n);
+            print_by_depth(out, "leaves by depth", cd->GetArray("depth"),
+                           [&](vtkIdType i) { return cls->GetTuple1(i) == CLASS_SURFACE; });
+        }
+        print_by_depth(out, "nodes by depth", cd->GetArray("depth"), [](vtkIdType) { return true; });
+        print_arrays(out, cd);
+    } else if (type == "PolyData") {
+        vtkNew<vtkXMLPolyDataReader> r;
+        read_xml(r.Get(), path);
+        vtkPolyData *pd = r->GetOutput();
+        std::fprintf(out, "file:     %s (VTK PolyData: a mesh)\n", path);
+        print_field_data(out, pd->GetFieldData());
+        std::fprintf(out, "points:   %lld\n", (long long)pd->GetNumberOfPoints());
+        std::fprintf(out, "polygons: %lld\n", (long long)pd->GetNumberOfPolys());
+    } else {
+        throw Error(std::string("cannot read ") + path +
+                    (type.empty() ? ": not a VTK XML file"
+                                  : ": VTK " + type + " files are not ones ivoct writes"));
+    }
+}
+
+}  // namespace ivexp

@@ -1,0 +1,194 @@
+#!/usr/bin/env bash
+# `ivoct build --vtu --htg --vdb --mesh` and `ivoct info` on them, from the outside.
+#
+# Every export is read back with Debian's VTK and OpenVDB Python modules
+# (python3-vtk9, python3-openvdb, run by /usr/bin/python3, not the python3 on
+# PATH) by tests/check_export.py and compared with --stats and --cells: cell
+# counts, each voxel's bounds, the HyperTreeGrid's nodes and leaves per depth,
+# the vdb surface's active voxels, the sdf's signs, the mesh of the sphere
+# (closed, outward, within a voxel of the sphere, area within 1% of 4 pi, the same as
+# pyopenvdb's own mesher gives); OpenVDB's vdb_print reads the .vdb too.
+# Then the failures: a full device, a missing folder, a file too large
+# (ulimit -f: a write that fails midway) give exit 1, one line on stderr, and
+# no file or temporary left behind; corrupt files give `ivoct info` exit 2.
+#
+# Needs IVOCT_BIN (the CLI) and IVOCT_SOURCE_DIR (the source tree), as set by ctest.
+set -u
+
+BIN=${IVOCT_BIN:?IVOCT_BIN must name the ivoct binary}
+SRC=${IVOCT_SOURCE_DIR:-.}
+PY=/usr/bin/python3
+CHECK=$SRC/tests/check_export.py
+SCENES=$SRC/scenes
+TMP=$(mktemp -d /tmp/ivoct-export.XXXXXX)
+trap 'rm -rf "$TMP"' EXIT
+
+failures=0
+checks=0
+fail() {
+    echo "FAIL: $*" >&2
+    failures=$((failures + 1))
+}
+ok() { checks=$((checks + 1)); }
+
+# run EXPECTED_EXIT DESCRIPTION -- ARGS...: runs $BIN ARGS, stdout/stderr in $TMP/out, $TMP/err
+run() {
+    local want=$1 what=$2
+    shift 3
+    "$BIN" "$@" >"$TMP/out" 2>"$TMP/err"
+    local got=$?
+    if [ "$got" -ne "$want" ]; then
+        fail "$what: exit $got, expected $want (ivoct $*)"
+        sed 's/^/    stderr: /' "$TMP/err" >&2
+        return 1
+    fi
+    ok
+    return 0
+}
+
+# the error output is exactly one non-empty line, containing each of the other arguments
+one_line_error() {
+    local what=$1 lines
+    shift
+    lines=$(wc -l <"$TMP/err")
+    if [ "$lines" -ne 1 ] || [ ! -s "$TMP/err" ]; then
+        fail "$what: expected a one-line message on stderr, got $lines lines"
+        sed 's/^/    stderr: /' "$TMP/err" >&2
+        return
+    fi
+    ok
+    local word
+    for word in "$@"; do
+        grep -qF -- "$word" "$TMP/err" && ok || fail "$what: '$word' not in: $(cat "$TMP/err")"
+    done
+}
+
+no_files() {
+    local what=$1 f
+    shift
+    for f in "$@"; do
+        [ -e "$f" ] && fail "$what: $f exists" || ok
+    done
+}
+
+no_temporaries() {
+    local what=$1 left
+    left=$(find "$TMP" -name '*.tmp.*' | head -5)
+    [ -n "$left" ] && fail "$what: temporary files left behind: $left" || ok
+}
+
+# check_export ARGS...: the Python read-back
+check_export() {
+    local what=$1
+    shift
+    if "$PY" "$CHECK" "$@"; then ok; else fail "$what: read-back checks (above)"; fi
+}
+
+if ! "$PY" -c 'import vtk, pyopenvdb, numpy' 2>"$TMP/err"; then
+    fail "/usr/bin/python3 cannot import vtk, pyopenvdb and numpy (make deps installs python3-vtk9, python3-openvdb): $(tail -1 "$TMP/err")"
+    echo "$checks checks passed, $failures failed"
+    exit 1
+fi
+
+# ---- the sphere at depth 7: every export, read back -----------------------------------------
+S=$TMP/sphere
+if run 0 "sphere depth 7" -- build "$SCENES/sphere.ini" --depth 7 --quiet \
+    --stats "$S.json" --cells "$S.csv" --vtu "$S.vtu" --htg "$S.htg" --vdb "$S.vdb" --mesh "$S.vtp"; then
+    no_temporaries "sphere depth 7"
+    # the other mesh formats hold the same mesh
+    run 0 "sphere .ply" -- build "$SCENES/sphere.ini" --depth 7 --quiet --mesh "$S.ply"
+    run 0 "sphere .obj" -- build "$SCENES/sphere.ini" --depth 7 --quiet --mesh "$S.OBJ"
+    check_export "sphere depth 7" --stats "$S.json" --cells "$S.csv" --vtu "$S.vtu" --htg "$S.htg" \
+        --vdb "$S.vdb" --mesh "$S.vtp" --mesh "$S.ply" --mesh "$S.OBJ" --sphere
+
+    leaves=$("$PY" -c 'import json,sys; print(json.load(open(sys.argv[1]))["leaves"])' "$S.json")
+    for f in "$S.vtu" "$S.htg"; do
+        if run 0 "info ${f##*.}" -- info "$f"; then
+            grep -q "^leaves: *$leaves$" "$TMP/out" || fail "info ${f##*.}: no 'leaves: $leaves' in: $(cat "$TMP/out")"
+            grep -q "^leaves by depth: 7:$leaves$" "$TMP/out" || fail "info ${f##*.}: no leaves by depth"
+        fi
+    done
+    if run 0 "info vdb" -- info "$S.vdb"; then
+        grep -q "^scene: *Sphere$" "$TMP/out" || fail "info vdb: no scene"
+        grep -q "^depth: *7$" "$TMP/out" || fail "info vdb: no depth"
+        grep -q "^grid: *surface (float, class unknown): $leaves active voxels" "$TMP/out" \
+            || fail "info vdb: no surface grid with $leaves voxels in: $(cat "$TMP/out")"
+        grep -q "^grid: *sdf (float, class level set)" "$TMP/out" || fail "info vdb: no sdf grid"
+    fi
+    # OpenVDB's own tools read the file (Debian: libopenvdb-tools)
+    if vdb_print -l "$S.vdb" >"$TMP/out" 2>&1; then
+        grep -q "^Name: sdf" "$TMP/out" && grep -q "^Name: surface" "$TMP/out" && ok \
+            || fail "vdb_print: no grids sdf and surface in: $(head -5 "$TMP/out")"
+    else
+        fail "vdb_print -l cannot read the .vdb: $(head -3 "$TMP/out")"
+    fi
+    run 0 "info vtp" -- info "$S.vtp" && { grep -q "^polygons: *[1-9]" "$TMP/out" || fail "info vtp: no polygons"; }
+    # a file is recognised by content, whatever its name
+    cp "$S.vdb" "$TMP/grids.bin"
+    run 0 "info vdb under another name" -- info "$TMP/grids.bin"
+
+    # corrupt files: exit 2, one line
+    for ext in vtu htg vdb; do
+        size=$(stat -c %s "$S.$ext")
+        head -c $((size / 2)) "$S.$ext" >"$TMP/trunc.$ext"
+        run 2 "info on a truncated .$ext" -- info "$TMP/trunc.$ext" && one_line_error "info truncated .$ext" "trunc.$ext"
+    done
+fi
+
+# ---- coarse leaves (ilie + refine) with slabs: tiles in the vdb, normals in the vtu ---------
+R=$TMP/refine
+if run 0 "sphere refine" -- build "$SCENES/sphere.ini" --depth 7 --tests interval,lipschitz,ilie \
+    --refine 0.01 --quiet --stats "$R.json" --cells "$R.csv" --vtu "$R.vtu" --htg "$R.htg" \
+    --vdb "$R.vdb" --mesh "$R.ply"; then
+    "$PY" -c 'import json,sys; d=json.load(open(sys.argv[1]))["leaves_by_depth"]; sys.exit(0 if sum(d[:-1]) > 0 else 1)' "$R.json" \
+        || fail "sphere refine: no leaf above the max depth: the coarse-leaf paths are not tested"
+    check_export "sphere refine" --stats "$R.json" --cells "$R.csv" --vtu "$R.vtu" --htg "$R.htg" \
+        --vdb "$R.vdb" --mesh "$R.ply" --sphere
+fi
+
+# ---- other shapes: a torus (genus 1), a CSG union with a box that cuts no surface -----------
+for s in gumdrop csg-64-spheres; do
+    G=$TMP/$s
+    run 0 "$s depth 6" -- build "$SCENES/$s.ini" --depth 6 --quiet --stats "$G.json" --cells "$G.csv" \
+        --vtu "$G.vtu" --htg "$G.htg" --vdb "$G.vdb" --mesh "$G.obj" &&
+        check_export "$s depth 6" --stats "$G.json" --cells "$G.csv" --vtu "$G.vtu" --htg "$G.htg" \
+            --vdb "$G.vdb" --mesh "$G.obj"
+done
+
+# ---- usage errors: exit 2 before any build ----------------------------------------------------
+run 2 "--mesh .stl" -- build "$SCENES/sphere.ini" --depth 4 --mesh "$TMP/m.stl" \
+    && one_line_error "--mesh .stl" "m.stl" ".vtp, .ply or .obj"
+run 2 "--mesh /dev/full (no extension)" -- build "$SCENES/sphere.ini" --depth 4 --mesh /dev/full
+run 2 "--vtu without value" -- build "$SCENES/sphere.ini" --depth 4 --vtu
+no_files "--mesh .stl" "$TMP/m.stl"
+
+# ---- write errors: exit 1, a clear message, no file left ---------------------------------------
+for opt in vtu htg vdb mesh; do
+    case $opt in mesh) ext=ply ;; *) ext=$opt ;; esac
+    if [ "$opt" != mesh ]; then  # --mesh needs an extension
+        run 1 "--$opt /dev/full" -- build "$SCENES/sphere.ini" --depth 4 --quiet "--$opt" /dev/full \
+            && one_line_error "--$opt /dev/full" "/dev/full" "No space left on device"
+    fi
+    run 1 "--$opt in a missing folder" -- build "$SCENES/sphere.ini" --depth 4 --quiet \
+        "--$opt" "$TMP/no-such-dir/out.$ext" && one_line_error "--$opt in a missing folder" "no-such-dir/out.$ext"
+    : >"$TMP/plain-file"
+    run 1 "--$opt under a file" -- build "$SCENES/sphere.ini" --depth 4 --quiet \
+        "--$opt" "$TMP/plain-file/out.$ext" && one_line_error "--$opt under a file" "plain-file/out.$ext"
+    # a write that fails midway (the file size limit stands for a full disk; SIGXFSZ
+    # ignored, so write() fails with EFBIG): the temporary is removed
+    if (
+        trap '' XFSZ
+        ulimit -f 64  # KiB; every output of depth 6 is larger
+        exec "$BIN" build "$SCENES/sphere.ini" --depth 6 --quiet "--$opt" "$TMP/big.$ext"
+    ) >"$TMP/out" 2>"$TMP/err"; then
+        fail "--$opt past the file size limit: exit 0"
+    else
+        [ $? -eq 1 ] && ok || fail "--$opt past the file size limit: exit not 1"
+        one_line_error "--$opt past the file size limit" "big.$ext" "too large"
+    fi
+    no_files "--$opt errors" "$TMP/no-such-dir" "$TMP/big.$ext"
+    no_temporaries "--$opt errors"
+done
+
+echo "$checks checks passed, $failures failed"
+[ "$failures" -eq 0 ]

@@ -69,6 +69,23 @@ static void show_progress(void *user, double fraction)
     fflush(stderr);
 }
 
+/* The same for the in-process octree build (oct_build calls it from one
+ * thread at a time). */
+static void show_build_progress(void *user, double fraction)
+{
+    progress_t *p = user;
+    if (!p->shown && omp_get_wtime() - p->start < 1.0)
+        return;
+    p->shown = 1;
+    int width = 40, full = (int)(fraction * width + 0.5);
+    fprintf(stderr, "\rbuilding the octree [%.*s%*s] %3d%%", full,
+            "########################################", width - full, "",
+            (int)(fraction * 100 + 0.5));
+    if (fraction >= 1.0)
+        fputc('\n', stderr);
+    fflush(stderr);
+}
+
 /* "WxH", both in 1..RAY_MAX_SIZE */
 static int parse_size(const char *text, int *w, int *h)
 {
@@ -379,6 +396,11 @@ int cmd_render(int argc, char **argv)
         op.tests = s.tests;
         op.refine = s.refine;
         op.threads = (int)threads;
+        progress_t bp = {omp_get_wtime(), 0, 0, 1};
+        if (!quiet && isatty(2)) {
+            op.progress = show_build_progress;
+            op.progress_user = &bp;
+        }
         double t0 = omp_get_wtime();
         if (oct_build(s.tape, s.box, &op, &tree, &err)) {
             fprintf(stderr, "ivoct render: building the octree: %s\n", err.msg);

@@ -341,9 +341,12 @@ static void classify(worker_t *w, const tape_t *t, int single_use, const cell_t 
     }
 
     /* ILIE: the slab misses the cell -> empty; else the slab is kept for the
-     * leaf and decides the refinement.  Even on a single-use tape, where it
-     * cannot exclude more than the interval test, the slab is wanted. */
+     * leaf and decides the refinement.  On a single-use tape it cannot exclude
+     * more than the interval test, so there it runs only where the slab itself
+     * is wanted: for the refinement and for the leaves at the max depth. */
     ilie_t L[8];
+    if (ilie && !refine && single_use && cells[0].depth < b->max_depth)
+        ilie = 0;
     if (ilie && nopen) {
         iv_box_t ob[8];
         for (int j = 0; j < nopen; j++)

@@ -534,15 +534,18 @@ static long check_loaded(const scene_t *sp, const char *name, int depth)
     double t_grid = omp_get_wtime() - t0, t_build = 0, t_sign = 0, t_empty = 0;
 
     /* the chain of the issue (interval; interval, lipschitz), then the whole
-     * chain with ILIE and early leaves (refine: 2% of the box's largest edge) */
-    static const unsigned configs[3] = {OCT_TEST_INTERVAL, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ,
+     * chain with ILIE, without and with early leaves (refine: 2% of the box's
+     * largest edge) */
+    static const unsigned configs[4] = {OCT_TEST_INTERVAL, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ,
+                                        OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE,
                                         OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE};
+    static const char *const names[4] = {"interval", "interval,lipschitz",
+                                         "interval,lipschitz,ilie", "all, refine"};
     double edge = fmax(s.box[1] - s.box[0], fmax(s.box[3] - s.box[2], s.box[5] - s.box[4]));
-    for (int c = 0; c < 3; c++) {
+    for (int c = 0; c < 4; c++) {
         char what[256];
-        snprintf(what, sizeof what, "%s [%s]", name,
-                 c == 0 ? "interval" : c == 1 ? "interval,lipschitz" : "all, refine");
-        oct_params_t p = {.depth = depth, .tests = configs[c], .refine = c == 2 ? 0.02 * edge : 0,
+        snprintf(what, sizeof what, "%s [%s]", name, names[c]);
+        oct_params_t p = {.depth = depth, .tests = configs[c], .refine = c == 3 ? 0.02 * edge : 0,
                           .threads = 2};
         oct_tree_t *t;
         double t1 = omp_get_wtime();

@@ -253,13 +253,16 @@ for a in img.find("Piece").find("PointData"):
             print(repr(v))
 EOF
 }
-G=$SCENES/gumdrop.ini
+# the gumdrop at depth 6: the behaviour is the same as at the scene's 8, the sanitizer
+# build much faster
+G=$TMP/gumdrop.ini
+sed 's/^depth .*/depth  = 6/' "$SCENES/gumdrop.ini" >"$G"
 rm -rf "$TMP/o" && mkdir -p "$TMP/o"
 if run 0 "build --save" -- build "$G" --save "$TMP/g.ivo" --quiet; then
     for m in newton-ah lipschitz; do
         run 0 "render default octree $m" -- render "$G" --method $m --size 48x40 --threads 1 \
             --png "$TMP/d.png" --vti "$TMP/d.vti" --stats "$TMP/d.json"
-        grep -q "octree depth 8" "$TMP/out" && grep -q "built in" "$TMP/out" && ok ||
+        grep -q "octree depth 6" "$TMP/out" && grep -q "built in" "$TMP/out" && ok ||
             fail "summary of the built octree: $(cat "$TMP/out")"
         run 0 "render --octree $m" -- render "$G" --octree "$TMP/g.ivo" --method $m --size 48x40 \
             --threads 2 --png "$TMP/f.png" --vti "$TMP/f.vti" --stats "$TMP/f.json" --quiet
@@ -282,7 +285,7 @@ d, f, n = (json.load(open(p)) for p in sys.argv[1:4])
 assert d["octree"] is True and f["octree"] is True and n["octree"] is False
 for s in (d, f):
     assert 0 < s["leaves_visited"] <= s["segments"], s
-    assert s["octree_depth"] == 8 and s["octree_leaves"] > 0
+    assert s["octree_depth"] == 6 and s["octree_leaves"] > 0
 assert d["octree_source"] == "built" and d["build_time_s"] > 0 and d["time_s"] > 0
 assert f["octree_source"] == sys.argv[4] and "build_time_s" not in f
 assert n["leaves_visited"] == 0 and "build_time_s" not in n and "octree_source" not in n

@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # Ray casting with and without the octree (issue 6), side by side in one run.
 #   bash bench/ray.sh [--build DIR] [--size WxH] [--reps N] [--surfaces "sphere gumdrop"]
-#                     [--methods "mitchell lipschitz"]
+#                     [--methods "mitchell lipschitz"] [--tests LIST] [--out NAME]
 # For each comparison surface: the octree is built once with the scene's [octree]
 # settings (ivoct build --save: the build time is reported apart), then for each method
 # the same render (scene camera, --size, default 300x300) is timed with the saved octree
 # (2 threads and 1 thread) and with --no-octree (2 threads), interleaved so both sides see
 # the same machine load; each time is the best of --reps runs (default 2) of the render
-# alone (the stats' time_s: no loading, no output).  Writes bench/results/ray.csv and
-# bench/results/ray.md (a Markdown table).
+# alone (the stats' time_s: no loading, no output).  --tests overrides the scenes' [octree]
+# tests for the build (e.g. interval,lipschitz,ilie: leaves with slabs).  Writes
+# bench/results/NAME.csv and NAME.md (a Markdown table); NAME defaults to ray.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/.." && pwd)
@@ -17,6 +18,8 @@ size=300x300
 reps=2
 surfaces="sphere drop chubs crosscap gumdrop horned-cube mcmullen-k3 kusner-schmitt"
 methods="mitchell newton newton-ah mrfro mrfro-newton lipschitz sampling"
+tests=
+name=ray
 while [ $# -gt 0 ]; do
     case $1 in
     --build) build=$2; shift 2 ;;
@@ -24,6 +27,8 @@ while [ $# -gt 0 ]; do
     --reps) reps=$2; shift 2 ;;
     --surfaces) surfaces=$2; shift 2 ;;
     --methods) methods=$2; shift 2 ;;
+    --tests) tests=$2; shift 2 ;;
+    --out) name=$2; shift 2 ;;
     *) echo "bench/ray.sh: unknown option $1" >&2; exit 2 ;;
     esac
 done
@@ -47,12 +52,13 @@ best() {
     echo "$b"
 }
 
-csv=$out/ray.csv
+csv=$out/$name.csv
 echo "surface,method,build_s,leaves,octree_2t_s,octree_1t_s,none_2t_s,speedup_2t,leaves_per_ray,evals_per_ray_octree,evals_per_ray_none,hits" >"$csv"
-echo "load average at start: $(cut -d' ' -f1-3 /proc/loadavg)" >"$out/ray.load"
+echo "load average at start: $(cut -d' ' -f1-3 /proc/loadavg)" >"$out/$name.load"
 for s in $surfaces; do
     scene=$root/scenes/$s.ini
-    "$bin" build "$scene" --threads 2 --save "$tmp/$s.ivo" --stats "$tmp/b.json" --quiet
+    "$bin" build "$scene" --threads 2 ${tests:+--tests "$tests"} --save "$tmp/$s.ivo" \
+        --stats "$tmp/b.json" --quiet
     read -r build_s leaves < <(python3 -c 'import json,sys; b=json.load(open(sys.argv[1])); print(b["time_s"], b["leaves"])' "$tmp/b.json")
     for m in $methods; do
         o2=$(best "$scene" --octree "$tmp/$s.ivo" --method "$m" --threads 2)
@@ -73,9 +79,9 @@ EOF
         tail -1 "$csv"
     done
 done
-echo "load average at end: $(cut -d' ' -f1-3 /proc/loadavg)" >>"$out/ray.load"
+echo "load average at end: $(cut -d' ' -f1-3 /proc/loadavg)" >>"$out/$name.load"
 
-python3 - "$csv" >"$out/ray.md" <<'EOF'
+python3 - "$csv" >"$out/$name.md" <<'EOF'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 print("| surface | build s | method | octree 2t s | octree 1t s | none 2t s | speedup | leaves/ray | evals/ray octree | evals/ray none |")
@@ -86,5 +92,5 @@ for r in rows:
         float(r["none_2t_s"]), float(r["speedup_2t"]), r["leaves_per_ray"],
         r["evals_per_ray_octree"], r["evals_per_ray_none"]))
 EOF
-cat "$out/ray.load"
-echo "wrote $csv and $out/ray.md"
+cat "$out/$name.load"
+echo "wrote $csv and $out/$name.md"

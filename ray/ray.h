@@ -130,7 +130,8 @@ typedef struct ray_result {
     ray_hit_kind_t kind;
     double t;           /* the hit; NaN on a miss */
     double t_lo, t_hi;  /* the final bracket (or accepted segment); NaN on a miss */
-    uint64_t evals;     /* tape passes: evaluator calls, each of up to TAPE_LANES boxes */
+    uint64_t evals;     /* tape passes: evaluator calls (gradient, interval or double),
+                         * each of up to TAPE_LANES boxes or points */
     uint64_t nodes;     /* segments examined */
 } ray_result_t;
 

@@ -39,6 +39,18 @@ bool cli_parse_int(const char *cmd, const char *opt, const char *text, long lo, 
  * as Python's read them back as inf), NaN as null. */
 void cli_json_double(FILE *f, double x);
 
+/* A progress bar on stderr, shown once the work has lasted a second.  The
+ * caller only installs it when stderr is a terminal and not --quiet.  With
+ * frames > 1 the fraction is of frame `frame` of `frames`. */
+typedef struct cli_progress {
+    const char *label;
+    double start; /* omp_get_wtime() at the start */
+    int shown, frame, frames;
+} cli_progress_t;
+
+/* The callback: user is a cli_progress_t. */
+void cli_show_progress(void *user, double fraction);
+
 /* Print a JSON string literal (quotes, backslashes and control characters escaped). */
 void cli_json_string(FILE *f, const char *s);
 

@@ -46,27 +46,6 @@ static const char HELP[] =
     "                    the format follows the name: .vtp, .ply or .obj\n"
     "  --quiet           no summary on stdout, no progress bar\n";
 
-typedef struct progress {
-    double start;
-    int shown;
-} progress_t;
-
-/* A bar on stderr once the build has lasted a second (only when stderr is a
- * terminal and not --quiet). */
-static void show_progress(void *user, double fraction)
-{
-    progress_t *p = user;
-    if (!p->shown && omp_get_wtime() - p->start < 1.0)
-        return;
-    p->shown = 1;
-    int width = 40, full = (int)(fraction * width + 0.5);
-    fprintf(stderr, "\rbuilding [%.*s%*s] %3d%%", full, "########################################",
-            width - full, "", (int)(fraction * 100 + 0.5));
-    if (fraction >= 1.0)
-        fputc('\n', stderr);
-    fflush(stderr);
-}
-
 static int parse_size(const char *text, size_t *out)
 {
     char *end;
@@ -304,14 +283,14 @@ int cmd_build(int argc, char **argv)
         goto out;
     }
 
-    progress_t prog = {omp_get_wtime(), 0};
+    cli_progress_t prog = {"building", omp_get_wtime(), 0, 0, 1};
     oct_params_t p = {
         .depth = s.depth,
         .tests = s.tests,
         .refine = s.refine,
         .threads = (int)threads,
         .max_memory = max_memory,
-        .progress = !quiet && isatty(2) ? show_progress : NULL,
+        .progress = !quiet && isatty(2) ? cli_show_progress : NULL,
         .progress_user = &prog,
     };
     oct_tree_t *tree;

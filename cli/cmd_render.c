@@ -47,45 +47,6 @@ static const char HELP[] =
     "                    build_time_s (when built here), ... (totals over frames)\n"
     "  --quiet           no summary on stdout, no progress bar\n";
 
-typedef struct progress {
-    double start;
-    int shown, frame, frames;
-} progress_t;
-
-/* A bar on stderr once the render has lasted a second (only when stderr is a
- * terminal and not --quiet). */
-static void show_progress(void *user, double fraction)
-{
-    progress_t *p = user;
-    if (!p->shown && omp_get_wtime() - p->start < 1.0)
-        return;
-    p->shown = 1;
-    double total = (p->frame + fraction) / p->frames;
-    int width = 40, full = (int)(total * width + 0.5);
-    fprintf(stderr, "\rrendering [%.*s%*s] %3d%%", full, "########################################",
-            width - full, "", (int)(total * 100 + 0.5));
-    if (total >= 1.0)
-        fputc('\n', stderr);
-    fflush(stderr);
-}
-
-/* The same for the in-process octree build (oct_build calls it from one
- * thread at a time). */
-static void show_build_progress(void *user, double fraction)
-{
-    progress_t *p = user;
-    if (!p->shown && omp_get_wtime() - p->start < 1.0)
-        return;
-    p->shown = 1;
-    int width = 40, full = (int)(fraction * width + 0.5);
-    fprintf(stderr, "\rbuilding the octree [%.*s%*s] %3d%%", full,
-            "########################################", width - full, "",
-            (int)(fraction * 100 + 0.5));
-    if (fraction >= 1.0)
-        fputc('\n', stderr);
-    fflush(stderr);
-}
-
 /* "WxH", both in 1..RAY_MAX_SIZE */
 static int parse_size(const char *text, int *w, int *h)
 {
@@ -396,9 +357,9 @@ int cmd_render(int argc, char **argv)
         op.tests = s.tests;
         op.refine = s.refine;
         op.threads = (int)threads;
-        progress_t bp = {omp_get_wtime(), 0, 0, 1};
+        cli_progress_t bp = {"building the octree", omp_get_wtime(), 0, 0, 1};
         if (!quiet && isatty(2)) {
-            op.progress = show_build_progress;
+            op.progress = cli_show_progress;
             op.progress_user = &bp;
         }
         double t0 = omp_get_wtime();
@@ -428,9 +389,9 @@ int cmd_render(int argc, char **argv)
         double diag = sqrt(dx * dx + dy * dy + dz * dz);
         ro.roots.sample_step = diag > 0 ? diag / 1000 : 0;
     }
-    progress_t prog = {omp_get_wtime(), 0, 0, (int)frames};
+    cli_progress_t prog = {"rendering", omp_get_wtime(), 0, 0, (int)frames};
     if (!quiet && isatty(2)) {
-        ro.progress = show_progress;
+        ro.progress = cli_show_progress;
         ro.progress_ctx = &prog;
     }
     ray_stats_t total = {0};

@@ -1,5 +1,6 @@
 /* ivoct — the command line: dispatch to subcommands. */
 #include <math.h>
+#include <omp.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -77,6 +78,23 @@ void cli_json_double(FILE *f, double x)
         fputs(x > 0 ? "1e999" : "-1e999", f);
     else
         fprintf(f, "%.17g", x);
+}
+
+void cli_show_progress(void *user, double fraction)
+{
+    cli_progress_t *p = user;
+    if (!p->shown && omp_get_wtime() - p->start < 1.0)
+        return;
+    p->shown = 1;
+    int frames = p->frames > 0 ? p->frames : 1;
+    double total = (p->frame + fraction) / frames;
+    int width = 40, full = (int)(total * width + 0.5);
+    fprintf(stderr, "\r%s [%.*s%*s] %3d%%", p->label, full,
+            "########################################", width - full, "",
+            (int)(total * 100 + 0.5));
+    if (total >= 1.0)
+        fputc('\n', stderr);
+    fflush(stderr);
 }
 
 void cli_json_string(FILE *f, const char *s)

@@ -83,6 +83,19 @@ void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t 
 void vtk_write_vtp(const Mesh &mesh, const exp_meta_t *meta, const char *path);
 void vtk_info(const char *path, FILE *out);
 
+// A tape workspace that frees itself.
+struct Workspace {
+    explicit Workspace(const tape_t *t) : ws(tape_ws_new(t->n))
+    {
+        if (!ws)
+            throw std::bad_alloc();
+    }
+    ~Workspace() { tape_ws_free(ws); }
+    Workspace(const Workspace &) = delete;
+    Workspace &operator=(const Workspace &) = delete;
+    tape_ws_t *ws;
+};
+
 }  // namespace ivexp
 
 #endif

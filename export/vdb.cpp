@@ -48,17 +48,6 @@ private:
     FILE *f_;
 };
 
-struct Workspace {
-    explicit Workspace(const tape_t *t) : ws(tape_ws_new(t->n))
-    {
-        if (!ws)
-            throw std::bad_alloc();
-    }
-    ~Workspace() { tape_ws_free(ws); }
-    Workspace(const Workspace &) = delete;
-    Workspace &operator=(const Workspace &) = delete;
-    tape_ws_t *ws;
-};
 
 void init()
 {

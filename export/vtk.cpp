@@ -186,18 +186,6 @@ struct Corner {
     bool operator==(const Corner &o) const { return x == o.x && y == o.y && z == o.z; }
 };
 
-// A tape workspace that frees itself.
-struct Workspace {
-    explicit Workspace(const tape_t *t) : ws(tape_ws_new(t->n))
-    {
-        if (!ws)
-            throw std::bad_alloc();
-    }
-    ~Workspace() { tape_ws_free(ws); }
-    Workspace(const Workspace &) = delete;
-    Workspace &operator=(const Workspace &) = delete;
-    tape_ws_t *ws;
-};
 
 }  // namespace
 

@@ -7,47 +7,8 @@
 # ctest; /usr/bin/python3 reads the CSV and JSON outputs.
 set -u
 
-BIN=${IVOCT_BIN:?IVOCT_BIN must name the ivoct binary}
-SRC=${IVOCT_SOURCE_DIR:-.}
-PY=/usr/bin/python3
-SCENES=$SRC/scenes
-TMP=$(mktemp -d /tmp/ivoct-build-cli.XXXXXX)
-trap 'rm -rf "$TMP"' EXIT
-
-failures=0
-checks=0
-fail() {
-    echo "FAIL: $*" >&2
-    failures=$((failures + 1))
-}
-ok() { checks=$((checks + 1)); }
-
-# run EXPECTED_EXIT DESCRIPTION -- ARGS...: runs $BIN ARGS, stdout/stderr in $TMP/out, $TMP/err
-run() {
-    local want=$1 what=$2
-    shift 3
-    "$BIN" "$@" >"$TMP/out" 2>"$TMP/err"
-    local got=$?
-    if [ "$got" -ne "$want" ]; then
-        fail "$what: exit $got, expected $want (ivoct $*)"
-        sed 's/^/    stderr: /' "$TMP/err" >&2
-        return 1
-    fi
-    ok
-    return 0
-}
-
-# the error output is exactly one non-empty line
-one_line_error() {
-    local what=$1 lines
-    lines=$(wc -l <"$TMP/err")
-    if [ "$lines" -ne 1 ] || [ ! -s "$TMP/err" ]; then
-        fail "$what: expected a one-line message on stderr, got $lines lines"
-        sed 's/^/    stderr: /' "$TMP/err" >&2
-    else
-        ok
-    fi
-}
+. "$(dirname "${BASH_SOURCE[0]}")/support/cli.sh"
+cli_setup build-cli
 
 # no file matching the glob pattern(s) exists
 no_files() {
@@ -283,5 +244,4 @@ open(p, "wb").write(b)' "$TMP/flip.ivo"
     run 2 "info on a scene file" -- info "$SCENES/sphere.ini" && one_line_error "info scene"
 fi
 
-echo "$checks checks passed, $failures failed"
-[ "$failures" -eq 0 ]
+cli_summary

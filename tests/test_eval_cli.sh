@@ -3,36 +3,14 @@
 # Bad input must give exit 2 and a one-line message (file:line:col for scene
 # files), never a crash; the ASan build runs this too.
 set -u
-BIN=${IVOCT_BIN:?IVOCT_BIN not set}
-PY=/usr/bin/python3
-TMP=$(mktemp -d /tmp/ivoct-eval-cli.XXXXXX)
-trap 'rm -rf "$TMP"' EXIT
-pass=0 failed=0
-ok() { pass=$((pass + 1)); }
-fail() { echo "FAIL: $*" >&2; failed=$((failed + 1)); }
-
-# run EXPECTED_EXIT NAME -- ARGS...: stdout in $TMP/out, stderr in $TMP/err
-run() {
-    local want=$1 name=$2
-    shift 3
-    "$BIN" "$@" >"$TMP/out" 2>"$TMP/err"
-    local got=$?
-    if [ "$got" -ne "$want" ]; then
-        fail "$name: exit $got, expected $want; stderr: $(head -c 300 "$TMP/err")"
-        return 1
-    fi
-    ok
-}
+. "$(dirname "${BASH_SOURCE[0]}")/support/cli.sh"
+cli_setup eval-cli
 
 # bad_scene NAME EXPECTED_POSITION: the scene $TMP/bad.ini must be refused with
 # exit 2 and one line "ivoct: FILE:POSITION: ..."
 bad_scene() {
     local name=$1 pos=$2
-    run 2 "$name" -- eval "$TMP/bad.ini" || return
-    local lines
-    lines=$(wc -l <"$TMP/err")
-    [ "$lines" -eq 1 ] || fail "$name: $lines lines on stderr"
-    grep -q "^ivoct: $TMP/bad.ini:$pos: " "$TMP/err" || fail "$name: message '$(cat "$TMP/err")' lacks $pos"
+    run 2 "$name" -- eval "$TMP/bad.ini" && one_line_error "$name" "ivoct: $TMP/bad.ini:$pos: "
 }
 
 # ---- good input --------------------------------------------------------------------------
@@ -57,7 +35,7 @@ run 0 "point box" -- eval -e 'x^2 - 2' --box 1.5 1.5 0 0 0 0 --json &&
     fail "point box"
 run 0 "empty (undefined everywhere)" -- eval -e 'sqrt(x)' --box -2 -1 0 0 0 0 --json &&
     grep -q '"empty": true' "$TMP/out" || fail "empty result not reported"
-run 0 "scene" -- eval "$IVOCT_SOURCE_DIR/scenes/gumdrop.ini" --grad && grep -q "^df/dz" "$TMP/out" || fail "scene text output"
+run 0 "scene" -- eval "$SCENES/gumdrop.ini" --grad && grep -q "^df/dz" "$TMP/out" || fail "scene text output"
 run 0 "--help" -- eval --help
 
 # ---- usage errors --------------------------------------------------------------------------
@@ -114,5 +92,4 @@ bad_scene "a 10 MB line" "3:1"
 
 run 2 "missing file" -- eval "$TMP/none.ini"
 
-echo "$pass passed, $failed failed"
-[ "$failed" -eq 0 ]
+cli_summary

@@ -9,47 +9,8 @@
 # ctest; /usr/bin/python3 reads the JSON, PNG and .vti outputs.
 set -u
 
-BIN=${IVOCT_BIN:?IVOCT_BIN must name the ivoct binary}
-SRC=${IVOCT_SOURCE_DIR:-.}
-PY=/usr/bin/python3
-SCENES=$SRC/scenes
-TMP=$(mktemp -d /tmp/ivoct-render-cli.XXXXXX)
-trap 'rm -rf "$TMP"' EXIT
-
-failures=0
-checks=0
-fail() {
-    echo "FAIL: $*" >&2
-    failures=$((failures + 1))
-}
-ok() { checks=$((checks + 1)); }
-
-# run EXPECTED_EXIT DESCRIPTION -- ARGS...: runs $BIN ARGS, stdout/stderr in $TMP/out, $TMP/err
-run() {
-    local want=$1 what=$2
-    shift 3
-    "$BIN" "$@" >"$TMP/out" 2>"$TMP/err"
-    local got=$?
-    if [ "$got" -ne "$want" ]; then
-        fail "$what: exit $got, expected $want (ivoct $*)"
-        sed 's/^/    stderr: /' "$TMP/err" >&2
-        return 1
-    fi
-    ok
-    return 0
-}
-
-# the error output is exactly one non-empty line
-one_line_error() {
-    local what=$1 lines
-    lines=$(wc -l <"$TMP/err")
-    if [ "$lines" -ne 1 ] || [ ! -s "$TMP/err" ]; then
-        fail "$what: expected a one-line message on stderr, got $lines lines"
-        sed 's/^/    stderr: /' "$TMP/err" >&2
-    else
-        ok
-    fi
-}
+. "$(dirname "${BASH_SOURCE[0]}")/support/cli.sh"
+cli_setup render-cli
 
 # no file (and no temporary) left in $TMP/out-dir
 no_outputs() {
@@ -327,5 +288,4 @@ EOF
     no_outputs "--octree errors"
 fi
 
-echo "$checks checks passed, $failures failed"
-[ "$failures" -eq 0 ]
+cli_summary

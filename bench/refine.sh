@@ -1,30 +1,41 @@
 #!/usr/bin/env bash
 # Gradient-adaptive refinement against a uniform octree at equal certified error (issue 4).
 #
-#   bash bench/refine.sh [--build DIR] [--surfaces "sphere gumdrop mcmullen-k3"] [--eps "1e-2 1e-3 1e-4 1e-5"]
+#   bash bench/refine.sh [--build DIR] [--surfaces "sphere gumdrop mcmullen-k3"]
+#                        [--eps "1e-2 1e-3 1e-4 1e-5 1e-6"] [--threads N]
+#                        [--plot-dir DIR] [--plot-only CSV]
 #
 # For each surface and tolerance EPS:
-#   refined:  ivoct build SCENE --tests interval,lipschitz,ilie --refine EPS --depth D
-#             where D is the depth at which a uniform leaf's diagonal is <= EPS, so that
-#             every leaf (early or not) has a certified error bound <= EPS;
-#   uniform:  ivoct build SCENE --tests interval,lipschitz --depth D (no refinement): its
-#             certified error is the leaf diagonal. Built when D <= 10; deeper ones are
-#             extrapolated from the depth-10 count by 4x per level (a surface's leaf count
-#             grows with its area / cell area) and marked "extrapolated".
-# Also: ilie against interval,lipschitz at depth 9 without refinement (time, cells).
-# Writes bench/results/refine-STAMP.csv and, with gnuplot, docs/refine.png.
+#   refined:  ivoct build SCENE --tests interval,ilie --refine EPS --depth D
+#             where D is the depth at which a uniform leaf's diagonal is <= EPS (at most
+#             21), so that every leaf (early or not) has a certified error bound <= EPS;
+#   uniform:  ivoct build SCENE --tests interval,lipschitz --depth D (no refinement, no
+#             slabs): its certified error is the leaf diagonal. Built when D <= 10; deeper
+#             ones are extrapolated from the depth-10 count by 4x per level (a surface's
+#             leaf count grows with its area / cell area) and marked "extrapolated".
+# Also, at depth 9 without refinement: the chains interval,lipschitz / interval,ilie /
+# interval,lipschitz,ilie (time, cells, and the share of the cells interval+lipschitz
+# leave open that ilie decides).
+# Writes bench/results/refine-STAMP.csv and, with gnuplot, DIR/refine.png (default docs/).
+# --plot-only CSV: only draw the plot from an earlier CSV (or several concatenated).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/.." && pwd)
 build=$root/build/release
 surfaces="sphere gumdrop mcmullen-k3"
-eps_list="1e-2 1e-3 1e-4 1e-5"
+eps_list="1e-2 1e-3 1e-4 1e-5 1e-6"
+threads=1
+plot_dir=$root/docs
+plot_only=
 while [ $# -gt 0 ]; do
     case $1 in
     --build) build=$2; shift ;;
     --surfaces) surfaces=$2; shift ;;
     --eps) eps_list=$2; shift ;;
-    -h | --help) sed -n '2,18p' "$0"; exit 0 ;;
+    --threads) threads=$2; shift ;;
+    --plot-dir) plot_dir=$2; shift ;;
+    --plot-only) plot_only=$2; shift ;;
+    -h | --help) sed -n '2,23p' "$0"; exit 0 ;;
     *) echo "bench/refine.sh: unknown option $1" >&2; exit 2 ;;
     esac
     shift
@@ -39,8 +50,10 @@ trap 'rm -rf "$work"' EXIT
 
 stat() { $PY -c 'import json,sys; d=json.load(open(sys.argv[1])); print(d[sys.argv[2]] if sys.argv[2] in d else d["decided_by"][sys.argv[2][11:]])' "$1" "$2"; }
 
-echo "surface,eps,depth,refined_leaves,refined_time_s,refined_max_error,uniform_leaves,uniform_time_s,uniform_error,uniform_kind,leaf_ratio" >"$csv"
+if [ -n "$plot_only" ]; then csv=$plot_only surfaces=$(cut -d, -f1 "$csv" | grep -v '^surface$' | uniq | tr '\n' ' '); fi
+[ -z "$plot_only" ] && echo "surface,eps,depth,refined_leaves,refined_time_s,refined_max_error,uniform_leaves,uniform_time_s,uniform_error,uniform_kind,leaf_ratio" >"$csv"
 for s in $surfaces; do
+    [ -n "$plot_only" ] && break
     scene=$root/scenes/$s.ini
     diag=$($PY - "$scene" <<'PYEOF'
 import sys
@@ -53,16 +66,18 @@ PYEOF
 )
     declare -A uni_leaves=() uni_time=()
     for eps in $eps_list; do
-        depth=$($PY -c 'import math,sys; print(max(0, math.ceil(math.log2(float(sys.argv[1]) / float(sys.argv[2])))))' "$diag" "$eps")
-        "$IVOCT" build "$scene" --depth "$depth" --tests interval,lipschitz,ilie --refine "$eps" \
-            --stats "$work/r.json" --quiet
+        depth=$($PY -c 'import math,sys; print(min(21, max(0, math.ceil(math.log2(float(sys.argv[1]) / float(sys.argv[2]))))))' "$diag" "$eps")
+        "$IVOCT" build "$scene" --depth "$depth" --tests interval,ilie --refine "$eps" \
+            --threads "$threads" --stats "$work/r.json" --quiet
         rl=$(stat "$work/r.json" leaves) rt=$(stat "$work/r.json" time_s) re=$(stat "$work/r.json" max_error_bound)
         if [ "$depth" -le 10 ]; then
-            "$IVOCT" build "$scene" --depth "$depth" --tests interval,lipschitz --stats "$work/u.json" --quiet
+            "$IVOCT" build "$scene" --depth "$depth" --tests interval,lipschitz --threads "$threads" \
+                --stats "$work/u.json" --quiet
             ul=$(stat "$work/u.json" leaves) ut=$(stat "$work/u.json" time_s) ue=$(stat "$work/u.json" max_error_bound)
             kind=built
         else
-            "$IVOCT" build "$scene" --depth 10 --tests interval,lipschitz --stats "$work/u.json" --quiet
+            "$IVOCT" build "$scene" --depth 10 --tests interval,lipschitz --threads "$threads" \
+                --stats "$work/u.json" --quiet
             ul=$($PY -c 'import sys; print(int(float(sys.argv[1]) * 4 ** (int(sys.argv[2]) - 10)))' "$(stat "$work/u.json" leaves)" "$depth")
             ut=NA ue=$($PY -c 'import sys; print(float(sys.argv[1]) / 2 ** int(sys.argv[2]))' "$diag" "$depth")
             kind=extrapolated
@@ -72,20 +87,30 @@ PYEOF
     done
 done
 
-echo "== ilie against interval,lipschitz at depth 9 (no refinement)"
-echo "surface,tests,time_s,cells_visited,leaves,decided_ilie,split,max_depth" >"$work/ilie.csv"
+[ -z "$plot_only" ] && echo "== the chains at depth 9 (no refinement)"
+echo "surface,tests,time_s,cells_visited,leaves,decided_lipschitz,decided_ilie,split,ilie_share" >"$work/ilie.csv"
 for s in $surfaces; do
-    for t in interval,lipschitz interval,lipschitz,ilie; do
-        "$IVOCT" build "$root/scenes/$s.ini" --depth 9 --tests $t --stats "$work/i.json" --quiet
-        echo "$s,\"$t\",$(stat "$work/i.json" time_s),$(stat "$work/i.json" cells_visited),$(stat "$work/i.json" leaves),$(stat "$work/i.json" decided_by.ilie),$(stat "$work/i.json" split),$(stat "$work/i.json" decided_by.max_depth)" | tee -a "$work/ilie.csv"
+    [ -n "$plot_only" ] && break
+    for t in interval,lipschitz interval,ilie interval,lipschitz,ilie; do
+        "$IVOCT" build "$root/scenes/$s.ini" --depth 9 --tests $t --threads "$threads" \
+            --stats "$work/i.json" --quiet
+        $PY - "$work/i.json" "$s" "$t" <<'PYEOF' | tee -a "$work/ilie.csv"
+import json, sys
+d = json.load(open(sys.argv[1])); by = d["decided_by"]
+# ilie_share: of the cells interval+lipschitz leave open, those ilie decides
+# (meaningful for interval,lipschitz,ilie, where ilie runs after both)
+share = by["ilie"] / (by["ilie"] + d["split"] + by["max_depth"]) if "lipschitz,ilie" in sys.argv[3] else ""
+print('%s,"%s",%.3f,%d,%d,%d,%d,%d,%s' % (sys.argv[2], sys.argv[3], d["time_s"], d["cells_visited"],
+      d["leaves"], by["lipschitz"], by["ilie"], d["split"], "%.3f" % share if share != "" else ""))
+PYEOF
     done
 done
-cp "$work/ilie.csv" "$root/bench/results/ilie-$stamp.csv"
+[ -z "$plot_only" ] && cp "$work/ilie.csv" "$root/bench/results/ilie-$stamp.csv"
 
 if command -v gnuplot >/dev/null; then
     gnuplot <<GPEOF
 set terminal pngcairo size 900,420 font ",10"
-set output "$root/docs/refine.png"
+set output "$plot_dir/refine.png"
 set datafile separator ","
 set multiplot layout 1,2 title "Gradient-adaptive refinement vs uniform octree (certified error)"
 set logscale xy
@@ -100,6 +125,6 @@ plot for [s in "$surfaces"] "< grep '^".s.",' $csv" using 6:5 with linespoints t
      for [s in "$surfaces"] "< grep '^".s.",.*,built,' $csv" using 9:8 with linespoints dashtype 2 title s." uniform"
 unset multiplot
 GPEOF
-    echo "plot: docs/refine.png"
+    echo "plot: $plot_dir/refine.png"
 fi
 echo "results: $csv"

@@ -1,17 +1,51 @@
 #!/usr/bin/env bash
-# `make bench`: every benchmark, results in bench/results/ (git-ignored).
-#   bash bench/run.sh [--quick]
+# `make bench`: every benchmark, CSV in bench/results/ (git-ignored), plots in docs/.
+#
+#   bash bench/run.sh [--quick] [--build DIR]
+#
+# Full: about 30 minutes on a 2-core machine; --quick: a few surfaces at low
+# depth and small images, about 3 minutes (a smoke run of every part, not numbers
+# to quote).  Each part can be run alone; see the header of each script.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/.." && pwd)
-build=${IVOCT_BUILD:-$root/build/release}
+build=$root/build/release
+quick=0
+while [ $# -gt 0 ]; do
+    case $1 in
+    --quick) quick=1 ;;
+    --build) build=$2; shift ;;
+    -h | --help) sed -n '2,9p' "$0"; exit 0 ;;
+    *) echo "bench/run.sh: unknown option $1" >&2; exit 2 ;;
+    esac
+    shift
+done
+export IVOCT_BIN=$build/cli/ivoct
 mkdir -p "$root/bench/results"
-comparison="sphere drop chubs crosscap gumdrop horned-cube mcmullen-k3 kusner-schmitt"
+q=()
+[ "$quick" = 1 ] && q=(--quick)
+start=$(date +%s)
+part() { echo; echo "== $1 ($(($(date +%s) - start)) s)"; }
 
-echo "== evaluators: ns per clause per box (issue 2)"
+part "tape evaluators: ns per clause per box (bench/bench_eval.c)"
+if [ "$quick" = 1 ]; then surfaces="sphere gumdrop"; else
+    surfaces="sphere drop chubs crosscap gumdrop horned-cube mcmullen-k3 kusner-schmitt"; fi
 scenes=()
-for s in $comparison; do scenes+=("$root/scenes/$s.ini"); done
+for s in $surfaces; do scenes+=("$root/scenes/$s.ini"); done
 "$build/bench/ivoct_bench_eval" "${scenes[@]}" | tee "$root/bench/results/eval.txt"
 
-echo "== octree build against dense sampling (issue 3)"
-bash "$here/octree.sh" --build "$build" "$@"
+part "octree build against dense sampling (bench/octree.sh)"
+bash "$here/octree.sh" --build "$build" "${q[@]}"
+
+part "octree build: time against certified error, per chain (bench/build.sh)"
+bash "$here/build.sh" --build "$build" "${q[@]}"
+
+part "refinement against a uniform octree at equal certified error (bench/refine.sh)"
+if [ "$quick" = 1 ]; then
+    bash "$here/refine.sh" --build "$build" --surfaces sphere --eps "1e-2 1e-3" \
+        --plot-dir "$root/bench/results"
+else
+    bash "$here/refine.sh" --build "$build" --eps "1e-2 1e-3 1e-4 1e-5"
+fi
+
+part "done"

@@ -38,7 +38,7 @@ static const char HELP[] =
     "                    x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi,nx,ny,nz,d_lo,d_hi,error_bound\n"
     "                    (the slab n.p in [d_lo, d_hi] is empty where a leaf has none)\n"
     "  --save F.ivo      the octree with its scene, for ivoct info and ivoct render\n"
-    "  --stats F.json    build statistics (see docs/octree.md)\n"
+    "  --stats F.json    build statistics (keys in octree/README.md)\n"
     "  --vtu F.vtu       surface leaves as VTK voxels (depth, f_lo, f_hi, error_bound)\n"
     "  --htg F.htg       the whole octree as a VTK HyperTreeGrid (see docs/paraview.md)\n"
     "  --vdb F.vdb       OpenVDB grids: surface (the leaves) and sdf (a level set)\n"
@@ -288,6 +288,9 @@ int cmd_build(int argc, char **argv)
         .depth = s.depth,
         .tests = s.tests,
         .refine = s.refine,
+        /* slabs are read by the CSV, the .vtu (normals, error bounds) and
+         * renders from the .ivo; without those, ILIE runs only as a test */
+        .slabs_unused = !cells && !save && !ex.vtu,
         .threads = (int)threads,
         .max_memory = max_memory,
         .progress = !quiet && isatty(2) ? cli_show_progress : NULL,

@@ -311,7 +311,10 @@ static double fxi(const fn_t *f, double al, int neg)
     case F_LOG: return 1.0 / al;
     case F_SQRT: return 0.25 / (al * al);
     case F_RECIP: return s / sqrt(-al);
-    case F_POWI: return s * pow(fabs(al / f->n), 1.0 / (f->n - 1));
+    case F_POWI: /* (al/n)^(1/(n-1)); sqrt and cbrt for the common cubes and 4th powers */
+        return s * (f->n == 3   ? sqrt(fabs(al / 3.0))
+                    : f->n == 4 ? cbrt(fabs(al / 4.0))
+                                : pow(fabs(al / f->n), 1.0 / (f->n - 1)));
     case F_POWR: return pow(al / f->r, 1.0 / (f->r - 1.0));
     case F_ATAN: return s * sqrt(1.0 / al - 1.0);
     default: return NAN;

@@ -48,6 +48,7 @@ typedef struct build {
     int max_depth;
     unsigned tests;
     double refine;
+    int slabs_unused;           /* oct_params_t.slabs_unused */
     int choices;                /* the tape has min/max/abs to prune */
     int single_use;             /* the root tape is a single-use expression */
     size_t max_memory;
@@ -116,6 +117,12 @@ static long pool_block(build_t *b, pool_t *p)
     return (long)(p->n - 8);
 }
 
+/* Are the leaves' slabs stored (in the array parallel to the leaves)? */
+static int keeps_slabs(const build_t *b)
+{
+    return (b->tests & OCT_TEST_ILIE) && !b->slabs_unused;
+}
+
 static long pool_leaf(build_t *b, pool_t *p, cell_t c, const decision_t *d)
 {
     iv_t F = d->F;
@@ -123,7 +130,7 @@ static long pool_leaf(build_t *b, pool_t *p, cell_t c, const decision_t *d)
     if (!q)
         return -1;
     p->leaves = q;
-    if (b->tests & OCT_TEST_ILIE) {
+    if (keeps_slabs(b)) {
         oct_slab_t *sl = grow(b, p->slabs, &p->caps, p->nl + 1, sizeof *sl);
         if (!sl)
             return -1;
@@ -272,6 +279,81 @@ static void make_slab(const ilie_t *l, const iv_box_t *box, int early, oct_slab_
     out->d_lo = lo, out->d_hi = hi, out->thickness = thick;
 }
 
+/* The interval gradient over the open cells, into G[k]. */
+static void gradient_pass(worker_t *w, const tape_t *t, const iv_box_t *boxes,
+                          const int *open, int nopen, iv_grad_t *G)
+{
+    if (!nopen)
+        return;
+    iv_box_t ob[8] = {0}; /* = {0}: gcc cannot see that nopen <= 8 */
+    iv_grad_t g[8];
+    for (int j = 0; j < nopen; j++)
+        ob[j] = boxes[open[j]];
+    tape_eval_grad(t, w->ws, (size_t)nopen, ob, g);
+    w->st.tape_clauses_evaluated += (uint64_t)nopen * t->n;
+    for (int j = 0; j < nopen; j++)
+        G[open[j]] = g[j];
+}
+
+/* The Lipschitz test on the open cells (gradients G from gradient_pass):
+ * decided cells leave `open`; returns how many remain. */
+static int lipschitz_pass(worker_t *w, const tape_t *t, const iv_box_t *boxes, int *open,
+                          int nopen, const iv_grad_t *G, decision_t *out)
+{
+    if (!nopen)
+        return 0;
+    iv_box_t cb[8] = {0}; /* = {0}: gcc cannot see that nopen <= 8 */
+    iv_t Fc[8];
+    double c[8][3];
+    for (int j = 0; j < nopen; j++) {
+        const iv_box_t *x = &boxes[open[j]];
+        c[j][0] = iv_mid(x->x), c[j][1] = iv_mid(x->y), c[j][2] = iv_mid(x->z);
+        cb[j] = (iv_box_t){iv_point(c[j][0]), iv_point(c[j][1]), iv_point(c[j][2])};
+    }
+    tape_eval_interval(t, w->ws_centre, (size_t)nopen, cb, Fc);
+    w->st.tape_clauses_evaluated += (uint64_t)nopen * t->n;
+    int still = 0;
+    for (int j = 0; j < nopen; j++) {
+        int k = open[j];
+        if (lipschitz_excludes(&boxes[k], Fc[j], c[j], G[k], &out[k].cls)) {
+            out[k].kind = EMPTY;
+            w->st.decided_lipschitz++;
+        } else {
+            open[still++] = k;
+        }
+    }
+    return still;
+}
+
+/* ILIE on the open cells: a slab that misses its cell decides it empty; the
+ * others keep their ILIE in L[k] (for the leaf's slab and the refinement).
+ * Returns how many cells remain open. */
+static int ilie_pass(worker_t *w, const tape_t *t, const iv_box_t *boxes, int *open, int nopen,
+                     ilie_t *L, decision_t *out)
+{
+    if (!nopen)
+        return 0;
+    iv_box_t ob[8] = {0}; /* = {0}: gcc cannot see that nopen <= 8 */
+    ilie_t l[8];
+    for (int j = 0; j < nopen; j++)
+        ob[j] = boxes[open[j]];
+    ilie_eval(t, w->ilie_ws, (size_t)nopen, ob, l);
+    w->st.tape_clauses_evaluated += (uint64_t)nopen * t->n;
+    int still = 0;
+    for (int j = 0; j < nopen; j++) {
+        int k = open[j], sign;
+        if (ilie_excludes_box(&l[j], &boxes[k], &sign)) {
+            out[k].kind = EMPTY;
+            out[k].cls = sign > 0 ? OCT_OUTSIDE : sign < 0 ? OCT_INSIDE : OCT_UNDEFINED;
+            w->st.decided_ilie++;
+        } else {
+            L[k] = l[j];
+            open[still++] = k;
+        }
+    }
+    return still;
+}
+
 /* Run the chain on m cells (the 8 children of a cell, or the root alone) with
  * tape t; single_use: tape_is_single_use(t), when the range tests after the
  * interval one cannot decide anything it leaves open. */
@@ -301,79 +383,44 @@ static void classify(worker_t *w, const tape_t *t, int single_use, const cell_t 
         }
     }
 
-    /* The gradient over the cell serves the Lipschitz test and the normal
-     * cone of the refinement; computed once, only for cells still open. */
     int lipschitz = (b->tests & OCT_TEST_LIPSCHITZ) && !single_use;
     int ilie = (b->tests & OCT_TEST_ILIE) != 0;
     int refine = ilie && b->refine > 0;
-    iv_grad_t G[8];
-    if (nopen && (lipschitz || refine)) {
-        iv_box_t ob[8];
-        for (int j = 0; j < nopen; j++)
-            ob[j] = boxes[open[j]];
-        tape_eval_grad(t, w->ws, (size_t)nopen, ob, G);
-        st->tape_clauses_evaluated += (uint64_t)nopen * t->n;
-    }
-
-    if (lipschitz && nopen) {
-        iv_box_t cb[8];
-        iv_t Fc[8];
-        double c[8][3];
-        for (int j = 0; j < nopen; j++) {
-            const iv_box_t *x = &boxes[open[j]];
-            c[j][0] = iv_mid(x->x), c[j][1] = iv_mid(x->y), c[j][2] = iv_mid(x->z);
-            cb[j] = (iv_box_t){iv_point(c[j][0]), iv_point(c[j][1]), iv_point(c[j][2])};
-        }
-        tape_eval_interval(t, w->ws_centre, (size_t)nopen, cb, Fc);
-        st->tape_clauses_evaluated += (uint64_t)nopen * t->n;
-        int still = 0;
-        for (int j = 0; j < nopen; j++) {
-            int k = open[j];
-            if (lipschitz_excludes(&boxes[k], Fc[j], c[j], G[j], &out[k].cls)) {
-                out[k].kind = EMPTY;
-                st->decided_lipschitz++;
-            } else {
-                G[still] = G[j];
-                open[still++] = k;
-            }
-        }
-        nopen = still;
-    }
-
-    /* ILIE: the slab misses the cell -> empty; else the slab is kept for the
-     * leaf and decides the refinement.  On a single-use tape it cannot exclude
-     * more than the interval test, so there it runs only where the slab itself
-     * is wanted: for the refinement and for the leaves at the max depth. */
-    ilie_t L[8];
-    if (ilie && !refine && single_use && cells[0].depth < b->max_depth)
+    /* On a single-use tape ILIE cannot exclude more than the interval test, so
+     * there it runs only where the slab itself is wanted: for the refinement
+     * and for the leaves at the max depth, unless no one reads their slabs. */
+    if (ilie && !refine && single_use &&
+        (cells[0].depth < b->max_depth || b->slabs_unused))
         ilie = 0;
-    if (ilie && nopen) {
-        iv_box_t ob[8];
+
+    /* Indexed by cell k, filled for the cells still open when computed.  The
+     * gradient serves the Lipschitz test and the normal cone of the
+     * refinement, and is computed at most once per cell. */
+    iv_grad_t G[8] = {0}; /* = {0}: gcc cannot see that only computed entries are read */
+    ilie_t L[8];
+    int have_gradient = 0;
+    if (lipschitz) {
+        gradient_pass(w, t, boxes, open, nopen, G);
+        have_gradient = 1;
+        nopen = lipschitz_pass(w, t, boxes, open, nopen, G, out);
+    }
+    if (ilie)
+        nopen = ilie_pass(w, t, boxes, open, nopen, L, out);
+    /* Only a cell whose slab is thin enough can stop early: the normal cone
+     * is checked for those alone. */
+    int thin[8], nthin = 0;
+    if (refine && !have_gradient && cells[0].depth < b->max_depth) {
         for (int j = 0; j < nopen; j++)
-            ob[j] = boxes[open[j]];
-        ilie_eval(t, w->ilie_ws, (size_t)nopen, ob, L);
-        st->tape_clauses_evaluated += (uint64_t)nopen * t->n;
-        int still = 0;
-        for (int j = 0; j < nopen; j++) {
-            int k = open[j], sign;
-            if (ilie_excludes_box(&L[j], &boxes[k], &sign)) {
-                out[k].kind = EMPTY;
-                out[k].cls = sign > 0 ? OCT_OUTSIDE : sign < 0 ? OCT_INSIDE : OCT_UNDEFINED;
-                st->decided_ilie++;
-            } else {
-                G[still] = G[j];
-                L[still] = L[j];
-                open[still++] = k;
-            }
-        }
-        nopen = still;
+            if (ilie_thickness(&L[open[j]]) < b->refine)
+                thin[nthin++] = open[j];
+        gradient_pass(w, t, boxes, thin, nthin, G);
     }
 
     for (int j = 0; j < nopen; j++) {
         int k = open[j];
         int depth = cells[k].depth;
-        int early = refine && depth < b->max_depth && ilie_thickness(&L[j]) < b->refine &&
-                    normals_within_60_degrees(&L[j], G[j]);
+        int early = refine && depth < b->max_depth && ilie_thickness(&L[k]) < b->refine &&
+                    normals_within_60_degrees(&L[k], G[k]);
         if (depth == b->max_depth || early) {
             out[k].kind = LEAF;
             if (early)
@@ -381,7 +428,7 @@ static void classify(worker_t *w, const tape_t *t, int single_use, const cell_t 
             else
                 st->decided_max_depth++;
             st->leaves_by_depth[depth]++;
-            make_slab(ilie ? &L[j] : NULL, &boxes[k], early, &out[k].slab);
+            make_slab(ilie ? &L[k] : NULL, &boxes[k], early, &out[k].slab);
             double bound = out[k].slab.n[0] || out[k].slab.n[1] || out[k].slab.n[2]
                                ? out[k].slab.thickness
                                : oct_box_diagonal(&boxes[k]);
@@ -593,7 +640,7 @@ fail:
  * in Morton order (the order of a depth-first walk with children 0..7). */
 static int assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct_tree_t *tree)
 {
-    int with_slabs = (b->tests & OCT_TEST_ILIE) != 0;
+    int with_slabs = keeps_slabs(b);
     size_t nn = top->n, nl = top->nl;
     for (size_t i = 0; i < nfront; i++)
         nn += front[i].pool.n, nl += front[i].pool.nl;
@@ -730,6 +777,7 @@ int oct_build(const tape_t *t, const double box[6], const oct_params_t *params,
     b.max_depth = params->depth;
     b.tests = params->tests;
     b.refine = params->refine;
+    b.slabs_unused = params->slabs_unused;
     b.choices = tape_has_choices(t);
     b.max_memory = params->max_memory;
     atomic_init(&b.bytes, 0);

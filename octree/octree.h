@@ -5,8 +5,15 @@
  * no surface:
  *   interval   0 not in F(cell)                    -> empty (inside / outside)
  *   lipschitz  |f(c)| > L r, L >= sup |grad f|      -> empty (Kalra-Barr)
+ *   ilie       the slab {p : 0 in a.(p - c) + J} misses the cell -> empty (Buhler)
  * otherwise the cell is split into 8 down to the max depth, where it is a
- * surface leaf.  Guarantee: every point of the box where f = 0 lies in a
+ * surface leaf -- or, with refine, earlier where its slab is thin and the
+ * surface has no fold (a leaf whose error bound is the slab's thickness).
+ * On a single-use tape (every input and clause used once) the interval result
+ * is the exact range up to rounding, so lipschitz and ilie cannot decide what
+ * interval leaves open: they are skipped there (ILIE still runs where a slab
+ * is wanted: with refine, and at the max depth unless slabs_unused).
+ * Guarantee: every point of the box where f = 0 lies in a
  * surface leaf (cells are closed boxes).  A surface leaf may hold no surface.
  *
  * Storage: a pool of nodes, each a 32-bit word; nodes[0] is the root, and the
@@ -71,6 +78,9 @@ typedef struct oct_params {
     double refine;      /* > 0 (needs OCT_TEST_ILIE): a cell whose slab is thinner than
                            refine and whose normals stay within 60 degrees of the slab's
                            becomes a leaf before the max depth */
+    int slabs_unused;   /* non-zero: nothing will read the leaves' slabs, so ILIE runs
+                           only where it can decide a cell (on a single-use tape it then
+                           never runs: see oct_build) */
     int threads;        /* <= 0: all cores */
     size_t max_memory;  /* bytes; 0 = no limit */
     /* Called now and then with the fraction done, from one thread at a time. */
@@ -105,7 +115,8 @@ typedef struct oct_tree {
     uint32_t n_nodes;
     oct_leaf_t *leaves;
     uint32_t n_leaves;
-    oct_slab_t *slabs;  /* n_leaves entries when the build ran the ilie test, else NULL */
+    oct_slab_t *slabs;  /* n_leaves entries when the build ran the ilie test without
+                           slabs_unused, else NULL */
     double refine;
     oct_stats_t stats;
 } oct_tree_t;

@@ -137,10 +137,68 @@ static void test_threads(void **state)
     rmdir(dir);
 }
 
+/* slabs_unused only skips work whose result nobody reads: the same nodes and
+ * leaves, the same decisions, and no slab array (max_error_bound may grow where
+ * only a slab would have made it smaller). */
+static void test_slabs_unused(void **state)
+{
+    (void)state;
+    int depth = asan() ? 5 : 6;
+    for (size_t i = 0; i < sizeof SCENES / sizeof *SCENES; i++) {
+        char path[4096];
+        snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), SCENES[i]);
+        scene_t s;
+        ivoct_error_t err;
+        ivoct_error_clear(&err);
+        if (scene_load(path, &s, &err) != 0)
+            fail_msg("cannot load %s: %s", path, err.msg);
+        double edge = fmax(s.box[1] - s.box[0], fmax(s.box[3] - s.box[2], s.box[5] - s.box[4]));
+        static const unsigned chains[] = {
+            OCT_TEST_INTERVAL | OCT_TEST_ILIE,
+            OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE,
+        };
+        for (int c = 0; c < 2; c++) {
+            for (int with_refine = 0; with_refine < 2; with_refine++) {
+                oct_tree_t *t[2];
+                for (int unused = 0; unused < 2; unused++) {
+                    oct_params_t p = {.depth = depth, .tests = chains[c],
+                                      .refine = with_refine ? 0.02 * edge : 0,
+                                      .slabs_unused = unused, .threads = 2};
+                    if (oct_build(s.tape, s.box, &p, &t[unused], &err) != 0)
+                        fail_msg("%s: oct_build: %s", SCENES[i], err.msg);
+                }
+                assert_non_null(t[0]->slabs);
+                assert_null(t[1]->slabs);
+                assert_int_equal(t[0]->n_nodes, t[1]->n_nodes);
+                assert_int_equal(t[0]->n_leaves, t[1]->n_leaves);
+                assert_memory_equal(t[0]->nodes, t[1]->nodes, t[0]->n_nodes * sizeof *t[0]->nodes);
+                assert_memory_equal(t[0]->leaves, t[1]->leaves,
+                                    t[0]->n_leaves * sizeof *t[0]->leaves);
+                const oct_stats_t *a = &t[0]->stats, *b = &t[1]->stats;
+                assert_int_equal(a->decided_interval, b->decided_interval);
+                assert_int_equal(a->decided_lipschitz, b->decided_lipschitz);
+                assert_int_equal(a->decided_ilie, b->decided_ilie);
+                assert_int_equal(a->decided_refine, b->decided_refine);
+                /* without slabs a leaf at the max depth on a single-use tape
+                 * has its diagonal as bound, never less than its slab's */
+                if (with_refine)
+                    assert_true(a->max_error_bound == b->max_error_bound);
+                else
+                    assert_true(a->max_error_bound <= b->max_error_bound);
+                assert_true(b->tape_clauses_evaluated <= a->tape_clauses_evaluated);
+                oct_free(t[0]);
+                oct_free(t[1]);
+            }
+        }
+        scene_free(&s);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_threads),
+        cmocka_unit_test(test_slabs_unused),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

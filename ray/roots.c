@@ -73,7 +73,9 @@ typedef struct lanes {
     int n;
     double lo[NL], hi[NL];
     unsigned char pt[NL];
-    iv_grad_t out[NL];
+    iv_t v[NL];     /* f over the lane's box (tape_eval_ray) */
+    iv_t dv[NL];    /* ∇f·d there; entire without derivatives */
+    double rnd[NL]; /* the rounding bound of tape_eval_ray; +inf without derivatives */
 } lanes_t;
 
 static int lane_point(lanes_t *L, double t)
@@ -94,47 +96,20 @@ static int lane_box(lanes_t *L, double a, double b)
     return L->n++;
 }
 
+/* One pass of the ray evaluator (expr/tape.h): a point lane is f at the
+ * rounded point p~(t); a segment lane encloses the exact segment and its
+ * rounded points; with derivatives, g' along d and the rounding bound. */
 static void run(ctx_t *c, lanes_t *L, int grad)
 {
-    iv_box_t box[NL];
-    for (int k = 0; k < L->n; k++) {
-        double pa[3], pb[3];
-        ray_point(c->o, c->d, L->lo[k], pa);
-        iv_t *ax = &box[k].x;
-        if (L->pt[k]) {
-            for (int i = 0; i < 3; i++)
-                ax[i] = iv_point(pa[i]);
-            continue;
-        }
-        /* The exact segment o + [a,b]·d, hulled with the rounded points of a and
-         * b: fl(o + fl(t·d)) is monotone in t, so every rounded point of T lies
-         * between those two and the box encloses it too. */
-        ray_point(c->o, c->d, L->hi[k], pb);
-        iv_t T = iv_make(L->lo[k], L->hi[k]);
-        for (int i = 0; i < 3; i++) {
-            iv_t s = iv_add(iv_point(c->o[i]), iv_mul(T, iv_point(c->d[i])));
-            ax[i] = iv_hull(iv_hull(s, iv_point(pa[i])), iv_point(pb[i]));
-        }
-    }
-    if (grad) {
-        tape_eval_grad(c->tape, c->ws, (size_t)L->n, box, L->out);
-    } else {
-        iv_t v[NL];
-        tape_eval_interval(c->tape, c->ws, (size_t)L->n, box, v);
-        for (int k = 0; k < L->n; k++) {
-            L->out[k].v = v[k];
-            L->out[k].dx = L->out[k].dy = L->out[k].dz = iv_entire();
-        }
-    }
+    iv_t T[NL];
+    for (int k = 0; k < L->n; k++)
+        T[k] = iv_make(L->lo[k], L->hi[k]);
+    tape_eval_ray(c->tape, c->ws, c->o, c->d, (size_t)L->n, T, L->v, grad ? L->dv : NULL,
+                  grad ? L->rnd : NULL);
+    if (!grad)
+        for (int k = 0; k < L->n; k++)
+            L->dv[k] = iv_entire(), L->rnd[k] = INFINITY;
     c->evals++;
-}
-
-/* g' = ∇f·d from a gradient enclosure */
-static iv_t dir_deriv(const ctx_t *c, const iv_grad_t *g)
-{
-    iv_t r = iv_mul(g->dx, iv_point(c->d[0]));
-    r = iv_add(r, iv_mul(g->dy, iv_point(c->d[1])));
-    return iv_add(r, iv_mul(g->dz, iv_point(c->d[2])));
 }
 
 /* ---- nodes ----------------------------------------------------------------------------- */
@@ -156,37 +131,25 @@ static void node_init(node_t *n, double a, double b)
     n->m = 0.5 * a + 0.5 * b;
 }
 
-static double mid_deriv(const ctx_t *c, const iv_grad_t *g)
+static double mid_deriv(const ctx_t *c, const lanes_t *L, int k)
 {
-    return c->deriv ? iv_mid(dir_deriv(c, g)) : NAN;
+    return c->deriv ? iv_mid(L->dv[k]) : NAN;
 }
 
-/* R: the points evaluated are p~(t) = p(t) + r(t) with |r_i(t)| <= 2^-52(|o_i| +
- * 2|t d_i|) (two roundings of at most 2^-53 relative each); f(p~(t)) - f(p~(m))
- * and g(t) - f(p~(m)) differ from ∇f(ξ)·(t - m)d by ∇f(ξ)·(r(t) - r(m)) or
- * ∇f(ξ)·(-r(m)), ξ in the box; we bound |r(t) - r(m)| by twice the larger r. */
-static iv_t rounding_term(const ctx_t *c, const node_t *n, const iv_grad_t *box)
+/* G', the derivative estimates at the points, and R: the points evaluated
+ * are p~(t), within rho (tape.h) of o + t·d and of each other's line, so
+ * f(p~(t)) - f(p~(m)) and g(t) - f(p~(m)) differ from ∇f(ξ)·(t - m)d by at
+ * most the rounding bound of the box lane (ξ in the box). */
+static void set_deriv(const ctx_t *c, node_t *n, const lanes_t *L, int ib, int im, int ia,
+                      int ie)
 {
-    double tmax = fmax(fabs(n->a), fabs(n->b));
-    const iv_t *gi = &box->dx;
-    iv_t sum = iv_point(0.0);
-    for (int i = 0; i < 3; i++) {
-        double r = iv_up(iv_up(fabs(c->o[i]) + iv_up(2.0 * tmax * fabs(c->d[i]))) * 0x1p-51);
-        sum = iv_add(sum, iv_mul(gi[i], iv_make(-r, r)));
-    }
-    return sum;
-}
-
-static void set_deriv(const ctx_t *c, node_t *n, const iv_grad_t *box, const iv_grad_t *mid,
-                      const iv_grad_t *a, const iv_grad_t *b)
-{
-    n->Gp = dir_deriv(c, box);
-    n->R = rounding_term(c, n, box);
-    n->dgm = mid_deriv(c, mid);
-    if (a)
-        n->dga = mid_deriv(c, a);
-    if (b)
-        n->dgb = mid_deriv(c, b);
+    n->Gp = L->dv[ib];
+    n->R = iv_make(-L->rnd[ib], L->rnd[ib]);
+    n->dgm = mid_deriv(c, L, im);
+    if (ia >= 0)
+        n->dga = mid_deriv(c, L, ia);
+    if (ie >= 0)
+        n->dgb = mid_deriv(c, L, ie);
 }
 
 /* Evaluate k (<= 2) nodes: box and midpoint, and both ends when `ends` (else
@@ -210,18 +173,17 @@ static void eval_nodes(ctx_t *c, node_t *n, int k, int ends)
     const int grad_now = c->deriv && !c->lazy;
     run(c, &L, grad_now);
     for (int j = 0; j < k; j++) {
-        n[j].G = L.out[ib[j]].v;
-        n[j].gm = L.out[im[j]].v;
+        n[j].G = L.v[ib[j]];
+        n[j].gm = L.v[im[j]];
         n[j].Gp = n[j].R = iv_entire();
         n[j].dgm = NAN;
         if (ends) {
-            n[j].ga = L.out[ia[j]].v;
-            n[j].gb = L.out[ie[j]].v;
+            n[j].ga = L.v[ia[j]];
+            n[j].gb = L.v[ie[j]];
             n[j].dga = n[j].dgb = NAN;
         }
         if (grad_now)
-            set_deriv(c, &n[j], &L.out[ib[j]], &L.out[im[j]], ends ? &L.out[ia[j]] : NULL,
-                      ends ? &L.out[ie[j]] : NULL);
+            set_deriv(c, &n[j], &L, ib[j], im[j], ends ? ia[j] : -1, ends ? ie[j] : -1);
     }
     if (!c->deriv || grad_now)
         return;
@@ -243,8 +205,7 @@ static void eval_nodes(ctx_t *c, node_t *n, int k, int ends)
     run(c, &D, 1);
     for (int j = 0; j < k; j++)
         if (need[j])
-            set_deriv(c, &n[j], &D.out[ib[j]], &D.out[im[j]], ends ? &D.out[ia[j]] : NULL,
-                      ends ? &D.out[ie[j]] : NULL);
+            set_deriv(c, &n[j], &D, ib[j], im[j], ends ? ia[j] : -1, ends ? ie[j] : -1);
 }
 
 static void eval_full(ctx_t *c, node_t *n, int k) { eval_nodes(c, n, k, 1); }
@@ -411,15 +372,15 @@ static ray_hit_kind_t refine(ctx_t *c, double a, double b, int sa, iv_t ga, doub
 #define REFINE_UPDATE(L)                                                                   \
     do {                                                                                   \
         for (int k_ = 0; k_ < (L).n; k_++) {                                               \
-            int s_ = sgn((L).out[k_].v);                                                   \
+            int s_ = sgn((L).v[k_]);                                                   \
             if (s_ != sa && (L).lo[k_] < b)                                                \
-                b = (L).lo[k_], gb = (L).out[k_].v;                                        \
+                b = (L).lo[k_], gb = (L).v[k_];                                        \
             if (s_ == -sa)                                                                 \
                 proven = 1;                                                                \
         }                                                                                  \
         for (int k_ = 0; k_ < (L).n; k_++)                                                 \
-            if (sgn((L).out[k_].v) == sa && (L).lo[k_] > a && (L).lo[k_] < b)              \
-                a = (L).lo[k_], ga = (L).out[k_].v;                                        \
+            if (sgn((L).v[k_]) == sa && (L).lo[k_] > a && (L).lo[k_] < b)              \
+                a = (L).lo[k_], ga = (L).v[k_];                                        \
     } while (0)
 
     if (!tiny(a, b)) {

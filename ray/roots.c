@@ -63,7 +63,6 @@ typedef struct ctx {
     tape_ws_t *ws;
     const double *o, *d;
     int deriv;       /* derivatives wanted (all certified methods but mrfro) */
-    int lazy;        /* ...only where the interval test cannot exclude (not lipschitz) */
     uint64_t evals;  /* evaluator calls */
     uint64_t nodes;  /* segments examined */
 } ctx_t;
@@ -153,11 +152,12 @@ static void set_deriv(const ctx_t *c, node_t *n, const lanes_t *L, int ib, int i
 }
 
 /* Evaluate k (<= 2) nodes: box and midpoint, and both ends when `ends` (else
- * the caller has set them).  Derivative methods get G' and the derivatives at
- * the points from a gradient pass; except lipschitz, whose test needs G' on
- * every segment, that pass is made only for the nodes the interval test could
- * not exclude (an interval pass costs a fraction of a gradient pass, and
- * most segments of a search are excluded). */
+ * the caller has set them), in one pass; derivative methods get G', R and
+ * the derivative estimates at the points from the same pass.  (With three
+ * partials per slot a derivative pass cost ~6 interval passes, and an
+ * interval pass came first to spare it on excluded segments; with the one
+ * tangent of tape_eval_ray it costs ~2, and the second pass no longer pays:
+ * 11-19% fewer instructions on gumdrop and the sphere, mitchell and newton.) */
 static void eval_nodes(ctx_t *c, node_t *n, int k, int ends)
 {
     lanes_t L = {0};
@@ -170,8 +170,7 @@ static void eval_nodes(ctx_t *c, node_t *n, int k, int ends)
             ie[j] = lane_point(&L, n[j].b);
         }
     }
-    const int grad_now = c->deriv && !c->lazy;
-    run(c, &L, grad_now);
+    run(c, &L, c->deriv);
     for (int j = 0; j < k; j++) {
         n[j].G = L.v[ib[j]];
         n[j].gm = L.v[im[j]];
@@ -182,30 +181,9 @@ static void eval_nodes(ctx_t *c, node_t *n, int k, int ends)
             n[j].gb = L.v[ie[j]];
             n[j].dga = n[j].dgb = NAN;
         }
-        if (grad_now)
+        if (c->deriv)
             set_deriv(c, &n[j], &L, ib[j], im[j], ends ? ia[j] : -1, ends ? ie[j] : -1);
     }
-    if (!c->deriv || grad_now)
-        return;
-    lanes_t D = {0};
-    int need[2] = {0, 0}, any = 0;
-    for (int j = 0; j < k; j++) {
-        if (!iv_contains(n[j].G, 0.0))
-            continue;
-        need[j] = any = 1;
-        ib[j] = lane_box(&D, n[j].a, n[j].b);
-        im[j] = lane_point(&D, n[j].m);
-        if (ends) {
-            ia[j] = lane_point(&D, n[j].a);
-            ie[j] = lane_point(&D, n[j].b);
-        }
-    }
-    if (!any)
-        return;
-    run(c, &D, 1);
-    for (int j = 0; j < k; j++)
-        if (need[j])
-            set_deriv(c, &n[j], &D, ib[j], im[j], ends ? ia[j] : -1, ends ? ie[j] : -1);
 }
 
 static void eval_full(ctx_t *c, node_t *n, int k) { eval_nodes(c, n, k, 1); }
@@ -813,7 +791,7 @@ ray_hit_kind_t ray_find_root_n(const tape_t *tape, tape_ws_t *ws, ray_method_t m
     if (k == 0)
         return RAY_MISS;
     const int deriv = m != RAY_MRFRO && m != RAY_SAMPLING;
-    ctx_t c = {tape, ws, o, d, deriv, deriv && m != RAY_LIPSCHITZ, 0, 0};
+    ctx_t c = {tape, ws, o, d, deriv, 0, 0};
     ray_hit_kind_t kind = RAY_MISS;
     int w = -1;
     if (m == RAY_SAMPLING) {

@@ -141,39 +141,39 @@ void tape_eval_point(const tape_t *t, tape_ws_t *ws, size_t n, const double *x,
 
 /* ---- interval --------------------------------------------------------------- */
 
-static void interval_chunk(const tape_t *t, iv_t *restrict S, const iv_box_t *box)
+static void interval_chunk(const tape_t *t, iv_t *restrict S, int nl, const iv_box_t *box)
 {
     for (uint32_t i = 0; i < t->n; i++) {
         const tape_clause_t *c = &t->clauses[i];
         iv_t *restrict o = S + (size_t)i * L;
         const iv_t *a = S + (size_t)c->a * L, *b = S + (size_t)c->b * L;
         switch ((tape_op_t)c->op) {
-        case TAPE_CONST: for (int k = 0; k < L; k++) o[k] = c->c; break;
-        case TAPE_X: for (int k = 0; k < L; k++) o[k] = box[k].x; break;
-        case TAPE_Y: for (int k = 0; k < L; k++) o[k] = box[k].y; break;
-        case TAPE_Z: for (int k = 0; k < L; k++) o[k] = box[k].z; break;
-        case TAPE_NEG: for (int k = 0; k < L; k++) o[k] = iv_neg(a[k]); break;
-        case TAPE_SQR: for (int k = 0; k < L; k++) o[k] = iv_sqr(a[k]); break;
+        case TAPE_CONST: for (int k = 0; k < nl; k++) o[k] = c->c; break;
+        case TAPE_X: for (int k = 0; k < nl; k++) o[k] = box[k].x; break;
+        case TAPE_Y: for (int k = 0; k < nl; k++) o[k] = box[k].y; break;
+        case TAPE_Z: for (int k = 0; k < nl; k++) o[k] = box[k].z; break;
+        case TAPE_NEG: for (int k = 0; k < nl; k++) o[k] = iv_neg(a[k]); break;
+        case TAPE_SQR: for (int k = 0; k < nl; k++) o[k] = iv_sqr(a[k]); break;
         case TAPE_POWI: {
             int n = (int)c->c.lo;
-            for (int k = 0; k < L; k++) o[k] = iv_powi(a[k], n);
+            for (int k = 0; k < nl; k++) o[k] = iv_powi(a[k], n);
             break;
         }
-        case TAPE_POWR: for (int k = 0; k < L; k++) o[k] = iv_powr(a[k], c->c.lo); break;
-        case TAPE_SQRT: for (int k = 0; k < L; k++) o[k] = iv_sqrt(a[k]); break;
-        case TAPE_EXP: for (int k = 0; k < L; k++) o[k] = iv_exp(a[k]); break;
-        case TAPE_LOG: for (int k = 0; k < L; k++) o[k] = iv_log(a[k]); break;
-        case TAPE_SIN: for (int k = 0; k < L; k++) o[k] = iv_sin(a[k]); break;
-        case TAPE_COS: for (int k = 0; k < L; k++) o[k] = iv_cos(a[k]); break;
-        case TAPE_TAN: for (int k = 0; k < L; k++) o[k] = iv_tan(a[k]); break;
-        case TAPE_ATAN: for (int k = 0; k < L; k++) o[k] = iv_atan(a[k]); break;
-        case TAPE_ABS: for (int k = 0; k < L; k++) o[k] = iv_abs(a[k]); break;
-        case TAPE_ADD: for (int k = 0; k < L; k++) o[k] = iv_add(a[k], b[k]); break;
-        case TAPE_SUB: for (int k = 0; k < L; k++) o[k] = iv_sub(a[k], b[k]); break;
-        case TAPE_MUL: for (int k = 0; k < L; k++) o[k] = iv_mul(a[k], b[k]); break;
-        case TAPE_DIV: for (int k = 0; k < L; k++) o[k] = iv_div(a[k], b[k]); break;
-        case TAPE_MIN: for (int k = 0; k < L; k++) o[k] = iv_min(a[k], b[k]); break;
-        case TAPE_MAX: for (int k = 0; k < L; k++) o[k] = iv_max(a[k], b[k]); break;
+        case TAPE_POWR: for (int k = 0; k < nl; k++) o[k] = iv_powr(a[k], c->c.lo); break;
+        case TAPE_SQRT: for (int k = 0; k < nl; k++) o[k] = iv_sqrt(a[k]); break;
+        case TAPE_EXP: for (int k = 0; k < nl; k++) o[k] = iv_exp(a[k]); break;
+        case TAPE_LOG: for (int k = 0; k < nl; k++) o[k] = iv_log(a[k]); break;
+        case TAPE_SIN: for (int k = 0; k < nl; k++) o[k] = iv_sin(a[k]); break;
+        case TAPE_COS: for (int k = 0; k < nl; k++) o[k] = iv_cos(a[k]); break;
+        case TAPE_TAN: for (int k = 0; k < nl; k++) o[k] = iv_tan(a[k]); break;
+        case TAPE_ATAN: for (int k = 0; k < nl; k++) o[k] = iv_atan(a[k]); break;
+        case TAPE_ABS: for (int k = 0; k < nl; k++) o[k] = iv_abs(a[k]); break;
+        case TAPE_ADD: for (int k = 0; k < nl; k++) o[k] = iv_add(a[k], b[k]); break;
+        case TAPE_SUB: for (int k = 0; k < nl; k++) o[k] = iv_sub(a[k], b[k]); break;
+        case TAPE_MUL: for (int k = 0; k < nl; k++) o[k] = iv_mul(a[k], b[k]); break;
+        case TAPE_DIV: for (int k = 0; k < nl; k++) o[k] = iv_div(a[k], b[k]); break;
+        case TAPE_MIN: for (int k = 0; k < nl; k++) o[k] = iv_min(a[k], b[k]); break;
+        case TAPE_MAX: for (int k = 0; k < nl; k++) o[k] = iv_max(a[k], b[k]); break;
         case TAPE_OP_COUNT: break;
         }
     }
@@ -193,7 +193,7 @@ void tape_eval_interval(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t
         size_t m = n - base < L ? n - base : L;
         iv_box_t chunk[L];
         fill_chunk(chunk, box + base, m);
-        interval_chunk(t, ws->iv, chunk);
+        interval_chunk(t, ws->iv, L, chunk);
         memcpy(out + base, ws->iv + (size_t)(t->n - 1) * L, m * sizeof *out);
     }
 }
@@ -405,8 +405,8 @@ static inline double mag_div(double x, double y)
     return x == 0 ? 0.0 : r == r ? iv_up(r) : INFINITY;
 }
 
-static void ray_chunk(const tape_t *t, tape_ws_t *ws, const iv_box_t *box, const double d[3],
-                      const double (*rho)[3])
+static void ray_chunk(const tape_t *t, tape_ws_t *ws, int nl, const iv_box_t *box,
+                      const double d[3], const double (*rho)[3])
 {
     iv_t *restrict V = ws->iv, *restrict D = ws->dir;
     double *restrict M = ws->mag;
@@ -420,32 +420,32 @@ static void ray_chunk(const tape_t *t, tape_ws_t *ws, const iv_box_t *box, const
         tape_op_t op = (tape_op_t)c->op;
         switch (op) {
         case TAPE_CONST:
-            for (int k = 0; k < L; k++) v[k] = c->c, dv[k] = ZERO, m[k] = 0.0;
+            for (int k = 0; k < nl; k++) v[k] = c->c, dv[k] = ZERO, m[k] = 0.0;
             break;
         case TAPE_X:
-            for (int k = 0; k < L; k++) v[k] = box[k].x, dv[k] = iv_point(d[0]), m[k] = rho[k][0];
+            for (int k = 0; k < nl; k++) v[k] = box[k].x, dv[k] = iv_point(d[0]), m[k] = rho[k][0];
             break;
         case TAPE_Y:
-            for (int k = 0; k < L; k++) v[k] = box[k].y, dv[k] = iv_point(d[1]), m[k] = rho[k][1];
+            for (int k = 0; k < nl; k++) v[k] = box[k].y, dv[k] = iv_point(d[1]), m[k] = rho[k][1];
             break;
         case TAPE_Z:
-            for (int k = 0; k < L; k++) v[k] = box[k].z, dv[k] = iv_point(d[2]), m[k] = rho[k][2];
+            for (int k = 0; k < nl; k++) v[k] = box[k].z, dv[k] = iv_point(d[2]), m[k] = rho[k][2];
             break;
         case TAPE_NEG:
-            for (int k = 0; k < L; k++) v[k] = iv_neg(av[k]), dv[k] = iv_neg(ad[k]), m[k] = am[k];
+            for (int k = 0; k < nl; k++) v[k] = iv_neg(av[k]), dv[k] = iv_neg(ad[k]), m[k] = am[k];
             break;
         case TAPE_ADD:
-            for (int k = 0; k < L; k++)
+            for (int k = 0; k < nl; k++)
                 v[k] = iv_add(av[k], bv[k]), dv[k] = iv_add(ad[k], bd[k]),
                 m[k] = iv_add_up(am[k], bm[k]);
             break;
         case TAPE_SUB:
-            for (int k = 0; k < L; k++)
+            for (int k = 0; k < nl; k++)
                 v[k] = iv_sub(av[k], bv[k]), dv[k] = iv_sub(ad[k], bd[k]),
                 m[k] = iv_add_up(am[k], bm[k]);
             break;
         case TAPE_MUL:
-            for (int k = 0; k < L; k++) {
+            for (int k = 0; k < nl; k++) {
                 v[k] = iv_mul(av[k], bv[k]);
                 dv[k] = mul_add(ad[k], bv[k], av[k], bd[k]);
                 m[k] = iv_add_up(mag_mul(am[k], mag_of(bv[k])), mag_mul(mag_of(av[k]), bm[k]));
@@ -453,7 +453,7 @@ static void ray_chunk(const tape_t *t, tape_ws_t *ws, const iv_box_t *box, const
             break;
         case TAPE_DIV:
             /* (a/b)' = (a' - (a/b) b') / b, and its bound over |b| >= mig(b) */
-            for (int k = 0; k < L; k++) {
+            for (int k = 0; k < nl; k++) {
                 iv_t q = iv_div(av[k], bv[k]);
                 v[k] = q;
                 dv[k] = iv_div(iv_sub(ad[k], iv_mul(q, bd[k])), bv[k]);
@@ -464,7 +464,7 @@ static void ray_chunk(const tape_t *t, tape_ws_t *ws, const iv_box_t *box, const
         case TAPE_MIN:
         case TAPE_MAX:
             /* the branch certainly selected carries its derivative, else the hull */
-            for (int k = 0; k < L; k++) {
+            for (int k = 0; k < nl; k++) {
                 int pick = op == TAPE_MIN ? pick_min(av[k], bv[k]) : pick_max(av[k], bv[k]);
                 v[k] = op == TAPE_MIN ? iv_min(av[k], bv[k]) : iv_max(av[k], bv[k]);
                 dv[k] = pick < 0 ? ad[k] : pick > 0 ? bd[k] : g_hull_or_empty(ad[k], bd[k]);
@@ -473,7 +473,7 @@ static void ray_chunk(const tape_t *t, tape_ws_t *ws, const iv_box_t *box, const
             break;
         case TAPE_OP_COUNT: break;
         default:
-            for (int k = 0; k < L; k++) {
+            for (int k = 0; k < nl; k++) {
                 iv_t u, du;
                 unary_vd(op, c->c, av[k], &u, &du);
                 v[k] = u;
@@ -513,8 +513,8 @@ void tape_eval_ray(const tape_t *t, tape_ws_t *ws, const double o[3], const doub
         size_t m = n - base < L ? n - base : L;
         iv_box_t chunk[L];
         double rho[L][3];
-        for (size_t k = 0; k < L; k++) {
-            iv_t Tk = T[base + (k < m ? k : 0)];
+        for (size_t k = 0; k < m; k++) {
+            iv_t Tk = T[base + k];
             ray_box(o, d, Tk, &chunk[k]);
             /* twice the largest displacement of a rounded point from the ray
              * over T: two roundings of at most 2^-53 relative each (tape.h) */
@@ -524,11 +524,11 @@ void tape_eval_ray(const tape_t *t, tape_ws_t *ws, const double o[3], const doub
         }
         const size_t last = (size_t)(t->n - 1) * L;
         if (!dg) {
-            interval_chunk(t, ws->iv, chunk);
+            interval_chunk(t, ws->iv, (int)m, chunk);
             memcpy(g + base, ws->iv + last, m * sizeof *g);
             continue;
         }
-        ray_chunk(t, ws, chunk, d, (const double(*)[3])rho);
+        ray_chunk(t, ws, (int)m, chunk, d, (const double(*)[3])rho);
         memcpy(g + base, ws->iv + last, m * sizeof *g);
         memcpy(dg + base, ws->dir + last, m * sizeof *dg);
         if (rnd)

@@ -63,6 +63,7 @@ typedef struct ctx {
     tape_ws_t *ws;
     const double *o, *d;
     int deriv;       /* derivatives wanted (all certified methods but mrfro) */
+    int skip;        /* nodes with 0 ∉ G(T) are dropped unseen (see eval_nodes) */
     uint64_t evals;  /* evaluator calls */
     uint64_t nodes;  /* segments examined */
 } ctx_t;
@@ -139,11 +140,15 @@ static double mid_deriv(const ctx_t *c, const lanes_t *L, int k)
  * are p~(t), within rho (tape.h) of o + t·d and of each other's line, so
  * f(p~(t)) - f(p~(m)) and g(t) - f(p~(m)) differ from ∇f(ξ)·(t - m)d by at
  * most the rounding bound of the box lane (ξ in the box). */
-static void set_deriv(const ctx_t *c, node_t *n, const lanes_t *L, int ib, int im, int ia,
-                      int ie)
+static void set_deriv(node_t *n, const lanes_t *L, int ib)
 {
     n->Gp = L->dv[ib];
     n->R = iv_make(-L->rnd[ib], L->rnd[ib]);
+}
+
+/* the derivative estimates at the points (lanes of L; -1: not evaluated) */
+static void set_deriv_points(const ctx_t *c, node_t *n, const lanes_t *L, int im, int ia, int ie)
+{
     n->dgm = mid_deriv(c, L, im);
     if (ia >= 0)
         n->dga = mid_deriv(c, L, ia);
@@ -151,19 +156,71 @@ static void set_deriv(const ctx_t *c, node_t *n, const lanes_t *L, int ib, int i
         n->dgb = mid_deriv(c, L, ie);
 }
 
+/* 0 ∉ G(T): no root (an empty G — f defined nowhere on T — also holds none) */
+static int excluded(const node_t *n) { return !iv_contains(n->G, 0.0); }
+
 /* Evaluate k (<= 2) nodes: box and midpoint, and both ends when `ends` (else
- * the caller has set them), in one pass; derivative methods get G', R and
- * the derivative estimates at the points from the same pass.  (With three
- * partials per slot a derivative pass cost ~6 interval passes, and an
- * interval pass came first to spare it on excluded segments; with the one
- * tangent of tape_eval_ray it costs ~2, and the second pass no longer pays:
- * 11-19% fewer instructions on gumdrop and the sphere, mitchell and newton.) */
-static void eval_nodes(ctx_t *c, node_t *n, int k, int ends)
+ * the caller has set them); derivative methods get G', R and the derivative
+ * estimates at the points from the same pass.  (With three partials per slot
+ * a derivative pass cost ~6 interval passes, and an interval pass came first
+ * to spare it on excluded segments; with the one tangent of tape_eval_ray it
+ * costs ~2, and the second pass no longer pays.)
+ *
+ * `skip`: the caller drops a node with 0 ∉ G(T) before looking at anything
+ * else (the search of mitchell, newton, newton-ah).  The boxes then go first
+ * and the points only for the nodes that remain: the evaluator's cost is per
+ * lane, and with the octree most segments are excluded by their box alone.
+ * A lane's result does not depend on the others, so the values (and the
+ * hits) are the same either way; only the number of passes changes. */
+static void eval_nodes(ctx_t *c, node_t *n, int k, int ends, int skip)
 {
     lanes_t L = {0};
     int ib[2], im[2], ia[2], ie[2];
-    for (int j = 0; j < k; j++) {
+    for (int j = 0; j < k; j++)
         ib[j] = lane_box(&L, n[j].a, n[j].b);
+    if (skip) {
+        run(c, &L, c->deriv);
+        lanes_t P = {0};
+        for (int j = 0; j < k; j++) {
+            n[j].G = L.v[ib[j]];
+            if (excluded(&n[j])) {
+                /* never looked at again; set so nothing indeterminate is copied */
+                n[j].gm = n[j].Gp = n[j].R = iv_entire();
+                n[j].dgm = NAN;
+                if (ends)
+                    n[j].ga = n[j].gb = iv_entire(), n[j].dga = n[j].dgb = NAN;
+                im[j] = -1;
+                continue;
+            }
+            /* the points go to P, the box stays in L */
+            im[j] = lane_point(&P, n[j].m);
+            if (ends) {
+                ia[j] = lane_point(&P, n[j].a);
+                ie[j] = lane_point(&P, n[j].b);
+            }
+        }
+        if (P.n == 0)
+            return;
+        run(c, &P, c->deriv);
+        for (int j = 0; j < k; j++) {
+            if (im[j] < 0)
+                continue;
+            n[j].gm = P.v[im[j]];
+            n[j].Gp = n[j].R = iv_entire();
+            n[j].dgm = NAN;
+            if (ends) {
+                n[j].ga = P.v[ia[j]];
+                n[j].gb = P.v[ie[j]];
+                n[j].dga = n[j].dgb = NAN;
+            }
+            if (c->deriv) {
+                set_deriv(&n[j], &L, ib[j]);
+                set_deriv_points(c, &n[j], &P, im[j], ends ? ia[j] : -1, ends ? ie[j] : -1);
+            }
+        }
+        return;
+    }
+    for (int j = 0; j < k; j++) {
         im[j] = lane_point(&L, n[j].m);
         if (ends) {
             ia[j] = lane_point(&L, n[j].a);
@@ -181,12 +238,14 @@ static void eval_nodes(ctx_t *c, node_t *n, int k, int ends)
             n[j].gb = L.v[ie[j]];
             n[j].dga = n[j].dgb = NAN;
         }
-        if (c->deriv)
-            set_deriv(c, &n[j], &L, ib[j], im[j], ends ? ia[j] : -1, ends ? ie[j] : -1);
+        if (c->deriv) {
+            set_deriv(&n[j], &L, ib[j]);
+            set_deriv_points(c, &n[j], &L, im[j], ends ? ia[j] : -1, ends ? ie[j] : -1);
+        }
     }
 }
 
-static void eval_full(ctx_t *c, node_t *n, int k) { eval_nodes(c, n, k, 1); }
+static void eval_full(ctx_t *c, node_t *n, int k) { eval_nodes(c, n, k, 1, c->skip); }
 
 /* The halves of p: ends known from p, one pass for both boxes and midpoints. */
 static void eval_halves(ctx_t *c, const node_t *p, node_t *l, node_t *r)
@@ -196,7 +255,7 @@ static void eval_halves(ctx_t *c, const node_t *p, node_t *l, node_t *r)
     node_init(&h[1], p->m, p->b);
     h[0].ga = p->ga, h[0].dga = p->dga, h[0].gb = p->gm, h[0].dgb = p->dgm;
     h[1].ga = p->gm, h[1].dga = p->dgm, h[1].gb = p->gb, h[1].dgb = p->dgb;
-    eval_nodes(c, h, 2, 0);
+    eval_nodes(c, h, 2, 0, c->skip);
     *l = h[0];
     *r = h[1];
 }
@@ -233,8 +292,6 @@ static int tiny(double a, double b)
     return b - a <= 4.0 * ulp(fmax(fabs(a), fabs(b)));
 }
 
-/* 0 ∉ G(T): no root (an empty G — f defined nowhere on T — also holds none) */
-static int excluded(const node_t *n) { return !iv_contains(n->G, 0.0); }
 
 /* 0 ∉ G'(T): g strictly monotone on T */
 static int monotone(const node_t *n) { return !iv_is_empty(n->Gp) && !iv_contains(n->Gp, 0.0); }
@@ -453,7 +510,7 @@ static int newton_case(ctx_t *c, node_t *np, ray_result_t *res)
             break;
         node_t nn;
         node_init(&nn, lo, hi);
-        eval_full(c, &nn, 1);
+        eval_nodes(c, &nn, 1, 1, 0); /* its points are used even if excluded */
         c->nodes++;
         if (excluded(&nn) && !proven)
             return RAY_MISS;
@@ -791,7 +848,8 @@ ray_hit_kind_t ray_find_root_n(const tape_t *tape, tape_ws_t *ws, ray_method_t m
     if (k == 0)
         return RAY_MISS;
     const int deriv = m != RAY_MRFRO && m != RAY_SAMPLING;
-    ctx_t c = {tape, ws, o, d, deriv, 0, 0};
+    const int skip = m == RAY_MITCHELL || m == RAY_NEWTON || m == RAY_NEWTON_AH;
+    ctx_t c = {tape, ws, o, d, deriv, skip, 0, 0};
     ray_hit_kind_t kind = RAY_MISS;
     int w = -1;
     if (m == RAY_SAMPLING) {

@@ -3,17 +3,20 @@
  * g(t) = f(o + t·d).  Every certified method is a left-first search over
  * sub-segments T = [a, b] of [t0, t1] held on an explicit stack (the right
  * sibling waits while the left one is searched), so the first hit found is
- * the smallest t.  A node carries, from one batched tape pass:
+ * the smallest t.  A node carries, from the ray evaluator tape_eval_ray
+ * (expr/tape.h: the box of T encloses the exact segment and its rounded
+ * points):
  *   G   = F(box of T): the natural interval enclosure of g over T;
- *   G'  = ∇F(box of T)·d (derivative methods);
+ *   G'  = ∇F(box of T)·d, one forward tangent along d (derivative methods);
+ *   R   = ± the evaluator's rounding bound (the points are p~(t), not o + t·d);
  *   [g] at a, b and m = mid(T): enclosures of f at the rounded points.
  * The methods differ only in the tests they apply to a node and in how they
  * shrink it; ray/README.md has each one and where it departs from the papers.
  *
- * Batching: one evaluator call costs the same for 1 to TAPE_LANES boxes, so a
- * bisection evaluates both halves and both of their midpoints in one call
- * (4 lanes); a Newton step its new segment, midpoint and ends (4 lanes);
- * a refinement step up to 6 candidate points.
+ * Batching: several lanes go in one evaluator call (its fixed cost is paid
+ * once; its cost per lane stays), so a bisection evaluates both halves and
+ * both of their midpoints in one call; a Newton step its new segment,
+ * midpoint and ends; a refinement step up to 8 candidate points.
  */
 #include <math.h>
 #include <string.h>
@@ -117,7 +120,7 @@ static void run(ctx_t *c, lanes_t *L, int grad)
 typedef struct node {
     double a, b, m;
     iv_t G;           /* F over the box of T (natural inclusion) */
-    iv_t Gp;          /* G'(T) = ∇F(box)·d; entire without derivatives */
+    iv_t Gp;          /* G'(T) ⊇ ∇f(box)·d; entire without derivatives */
     iv_t R;           /* the rounding of the points: f at any rounded point of T, or
                        * the exact g(t), lies in [g(m)] + G'(T)·(T - m) + R */
     iv_t ga, gb, gm;  /* f at the rounded points of a, b, m */
@@ -136,10 +139,11 @@ static double mid_deriv(const ctx_t *c, const lanes_t *L, int k)
     return c->deriv ? iv_mid(L->dv[k]) : NAN;
 }
 
-/* G', the derivative estimates at the points, and R: the points evaluated
- * are p~(t), within rho (tape.h) of o + t·d and of each other's line, so
- * f(p~(t)) - f(p~(m)) and g(t) - f(p~(m)) differ from ∇f(ξ)·(t - m)d by at
- * most the rounding bound of the box lane (ξ in the box). */
+/* G' and R from a box lane.  R: the points evaluated are p~(t), and
+ * p~(t) - p~(m) = (t - m)d + e, o + t·d - p~(m) = (t - m)d + e', with
+ * |e_i|, |e'_i| <= rho_i (tape.h); so f(p~(t)) - f(p~(m)) and g(t) - f(p~(m))
+ * differ from ∇f(ξ)·(t - m)d (ξ in the box) by at most the lane's rounding
+ * bound. */
 static void set_deriv(node_t *n, const lanes_t *L, int ib)
 {
     n->Gp = L->dv[ib];

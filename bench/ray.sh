@@ -2,6 +2,7 @@
 # Ray casting with and without the octree (issue 6), side by side in one run.
 #   bash bench/ray.sh [--build DIR] [--size WxH] [--reps N] [--surfaces "sphere gumdrop"]
 #                     [--methods "mitchell lipschitz"] [--tests LIST] [--out NAME]
+#                     [--baseline DIR]
 # For each comparison surface: the octree is built once with the scene's [octree]
 # settings (ivoct build --save: the build time is reported apart), then for each method
 # the same render (scene camera, --size, default 300x300) is timed with the saved octree
@@ -10,6 +11,13 @@
 # alone (the stats' time_s: no loading, no output).  --tests overrides the scenes' [octree]
 # tests for the build (e.g. interval,lipschitz,ilie: leaves with slabs).  Writes
 # bench/results/NAME.csv and NAME.md (a Markdown table); NAME defaults to ray.
+# Then NAME-florez.md: the same one-thread times in the layout of Flórez's table
+# (rows the methods, columns the surfaces; with the octree, without it, the ratio to
+# Mitchell, build + render as "total"; the published Pentium 4 table beside).
+# --baseline DIR: another build directory (e.g. an older commit built apart) whose
+# ivoct renders the same scenes from the same saved octree on one thread, right
+# after this build's renders, so both see the same load; its tables come too, with
+# the speed-up (baseline time / this build's time) per cell.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/.." && pwd)
@@ -20,6 +28,7 @@ surfaces="sphere drop chubs crosscap gumdrop horned-cube mcmullen-k3 kusner-schm
 methods="mitchell newton newton-ah mrfro mrfro-newton lipschitz sampling"
 tests=
 name=ray
+baseline=
 while [ $# -gt 0 ]; do
     case $1 in
     --build) build=$2; shift 2 ;;
@@ -29,21 +38,28 @@ while [ $# -gt 0 ]; do
     --methods) methods=$2; shift 2 ;;
     --tests) tests=$2; shift 2 ;;
     --out) name=$2; shift 2 ;;
+    --baseline) baseline=$2; shift 2 ;;
     *) echo "bench/ray.sh: unknown option $1" >&2; exit 2 ;;
     esac
 done
 bin=$build/cli/ivoct
 [ -x "$bin" ] || { echo "bench/ray.sh: no $bin (build first, or --build DIR)" >&2; exit 2; }
+base_bin=
+if [ -n "$baseline" ]; then
+    base_bin=$baseline/cli/ivoct
+    [ -x "$base_bin" ] || { echo "bench/ray.sh: no $base_bin (--baseline DIR)" >&2; exit 2; }
+fi
 out=$root/bench/results
 mkdir -p "$out"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
-# best time_s of $reps renders; the stats of the last one stay in $tmp/r.json
+# best time_s of $reps renders with $exe; the stats of the last one stay in $tmp/r.json
+exe=$bin
 best() {
     local b=
     for _ in $(seq "$reps"); do
-        "$bin" render "$@" --size "$size" --stats "$tmp/r.json" --quiet
+        "$exe" render "$@" --size "$size" --stats "$tmp/r.json" --quiet
         local t
         t=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["time_s"])' "$tmp/r.json")
         b=$(python3 -c 'import sys; a=sys.argv[1]; print(sys.argv[2] if not a else min(float(a), float(sys.argv[2])))' "$b" "$t")
@@ -53,7 +69,7 @@ best() {
 }
 
 csv=$out/$name.csv
-echo "surface,method,build_s,leaves,octree_2t_s,octree_1t_s,none_2t_s,speedup_2t,leaves_per_ray,evals_per_ray_octree,evals_per_ray_none,hits" >"$csv"
+echo "surface,method,build_s,leaves,octree_2t_s,octree_1t_s,none_2t_s,speedup_2t,leaves_per_ray,evals_per_ray_octree,evals_per_ray_none,hits,none_1t_s,base_octree_1t_s,base_none_1t_s" >"$csv"
 echo "load average at start: $(cut -d' ' -f1-3 /proc/loadavg)" >"$out/$name.load"
 for s in $surfaces; do
     scene=$root/scenes/$s.ini
@@ -66,15 +82,23 @@ for s in $surfaces; do
         o1=$(best "$scene" --octree "$tmp/$s.ivo" --method "$m" --threads 1)
         n2=$(best "$scene" --no-octree --method "$m" --threads 2)
         cp "$tmp/last.json" "$tmp/n.json"
-        python3 - "$tmp/o.json" "$tmp/n.json" "$s" "$m" "$build_s" "$leaves" "$o2" "$o1" "$n2" >>"$csv" <<'EOF'
+        n1=$(best "$scene" --no-octree --method "$m" --threads 1)
+        bo1=nan bn1=nan
+        if [ -n "$base_bin" ]; then
+            exe=$base_bin
+            bo1=$(best "$scene" --octree "$tmp/$s.ivo" --method "$m" --threads 1)
+            bn1=$(best "$scene" --no-octree --method "$m" --threads 1)
+            exe=$bin
+        fi
+        python3 - "$tmp/o.json" "$tmp/n.json" "$s" "$m" "$build_s" "$leaves" "$o2" "$o1" "$n2" "$n1" "$bo1" "$bn1" >>"$csv" <<'EOF'
 import json, sys
 o, n = (json.load(open(p)) for p in sys.argv[1:3])
 s, m, build_s, leaves = sys.argv[3:7]
-o2, o1, n2 = map(float, sys.argv[7:10])
+o2, o1, n2, n1, bo1, bn1 = map(float, sys.argv[7:13])
 r = o["rays"]
-print("%s,%s,%.3f,%s,%.4f,%.4f,%.4f,%.1f,%.2f,%.1f,%.1f,%d" % (
+print("%s,%s,%.3f,%s,%.4f,%.4f,%.4f,%.1f,%.2f,%.1f,%.1f,%d,%.4f,%.4f,%.4f" % (
     s, m, float(build_s), leaves, o2, o1, n2, n2 / o2, o["leaves_visited"] / r,
-    o["tape_evals"] / r, n["tape_evals"] / r, o["hits"]))
+    o["tape_evals"] / r, n["tape_evals"] / r, o["hits"], n1, bo1, bn1))
 EOF
         tail -1 "$csv"
     done
@@ -92,5 +116,7 @@ for r in rows:
         float(r["none_2t_s"]), float(r["speedup_2t"]), r["leaves_per_ray"],
         r["evals_per_ray_octree"], r["evals_per_ray_none"]))
 EOF
+python3 "$here/florez_table.py" "$csv" >"$out/$name-florez.md"
+cat "$out/$name-florez.md"
 cat "$out/$name.load"
-echo "wrote $csv and $out/$name.md"
+echo "wrote $csv, $out/$name.md and $out/$name-florez.md"

@@ -120,6 +120,44 @@ void tape_eval_interval(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t
 void tape_eval_grad(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *box,
                     iv_grad_t *out);
 
+/* ---- along a ray ----------------------------------------------------------------
+ * g(t) = f(o + t·d) on a ray with finite o and d.  The rounded point of
+ * parameter t is p~(t) = fl(o + fl(t·d)) per axis (two roundings; the build
+ * has -ffp-contract=off): what a caller that evaluates "at t" really gets. */
+static inline void tape_ray_point(const double o[3], const double d[3], double t, double p[3])
+{
+    for (int i = 0; i < 3; i++) {
+        double s = t * d[i];
+        p[i] = o[i] + s;
+    }
+}
+
+/* Rigorous enclosures along a ray, for n parameter intervals T[k] (finite,
+ * T.lo <= T.hi).  Lane k is evaluated over the box X_k:
+ *   - T = [t, t]: X = {p~(t)}, the rounded point;
+ *   - T.lo < T.hi: X = an outward-rounded enclosure of the exact segment
+ *     o + T·d, hulled with p~(T.lo) and p~(T.hi), so X holds every exact
+ *     point o + t·d and every rounded point p~(t), t ∈ T (p~ is monotone in t).
+ * Then:
+ *   g[k]   ⊇ { f(p) : p ∈ X_k, f defined at p }  (so g[k] ⊇ g(T) for a segment;
+ *            the same set as tape_eval_interval on X_k);
+ *   dg[k]  ⊇ { ∇f(p)·d : p ∈ X_k, f differentiable at p }, with one forward
+ *            tangent (not three partials); where abs, min or max is not
+ *            differentiable it holds every one-sided derivative along d, as
+ *            tape_eval_grad does; so dg[k] ⊇ g'(T);
+ *   rnd[k] >= sup { |∇f(p)·e| : p ∈ X_k, |e_i| <= rho_i(T_k) }, where
+ *            rho_i(T) = 2^-51 (|o_i| + 2 max(|T.lo|, |T.hi|) |d_i|) rounded up
+ *            is at least twice the displacement |p~_i(t) - (o_i + t d_i)| of any
+ *            rounded point of T; +inf where no finite bound is known (f not
+ *            Lipschitz on X_k, e.g. sqrt at 0).  By the mean value theorem,
+ *            for t, m ∈ T: f(p~(t)) and g(t) lie in f(p~(m)) + dg·(t - m) ±
+ *            rnd (the Newton and Kalra–Barr steps of ray/roots.c need this).
+ * Same outward rounding and set-based conventions as the interval evaluator:
+ * empty where f is defined nowhere on X_k, never NaN from a defined value.
+ * dg = NULL: values only (an interval pass; rnd ignored).  rnd may be NULL. */
+void tape_eval_ray(const tape_t *t, tape_ws_t *ws, const double o[3], const double d[3],
+                   size_t n, const iv_t *T, iv_t *g, iv_t *dg, double *rnd);
+
 /* After tape_eval_interval, the interval of clause i in lane `lane` of the
  * last chunk evaluated (lane < TAPE_LANES).  Used to prune min/max per cell. */
 iv_t tape_ws_slot(const tape_ws_t *ws, uint32_t i, unsigned lane);

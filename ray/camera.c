@@ -106,12 +106,9 @@ int ray_camera_orbit(const ray_camera_t *cam, double angle, ray_camera_t *out,
 
 void ray_point(const double o[3], const double d[3], double t, double p[3])
 {
-    /* two roundings per axis (the build uses -ffp-contract=off): the box
-     * enclosures of roots.c rely on p being monotone in t per axis */
-    for (int i = 0; i < 3; i++) {
-        double s = t * d[i];
-        p[i] = o[i] + s;
-    }
+    /* the one definition of the rounded point: tape_eval_ray evaluates at
+     * the same points */
+    tape_ray_point(o, d, t, p);
 }
 
 int ray_clip_box(const double box[6], const double o[3], const double d[3], double *t0,

@@ -3,17 +3,20 @@
  * g(t) = f(o + t·d).  Every certified method is a left-first search over
  * sub-segments T = [a, b] of [t0, t1] held on an explicit stack (the right
  * sibling waits while the left one is searched), so the first hit found is
- * the smallest t.  A node carries, from one batched tape pass:
+ * the smallest t.  A node carries, from the ray evaluator tape_eval_ray
+ * (expr/tape.h: the box of T encloses the exact segment and its rounded
+ * points):
  *   G   = F(box of T): the natural interval enclosure of g over T;
- *   G'  = ∇F(box of T)·d (derivative methods);
+ *   G'  = ∇F(box of T)·d, one forward tangent along d (derivative methods);
+ *   R   = ± the evaluator's rounding bound (the points are p~(t), not o + t·d);
  *   [g] at a, b and m = mid(T): enclosures of f at the rounded points.
  * The methods differ only in the tests they apply to a node and in how they
  * shrink it; ray/README.md has each one and where it departs from the papers.
  *
- * Batching: one evaluator call costs the same for 1 to TAPE_LANES boxes, so a
- * bisection evaluates both halves and both of their midpoints in one call
- * (4 lanes); a Newton step its new segment, midpoint and ends (4 lanes);
- * a refinement step up to 6 candidate points.
+ * Batching: several lanes go in one evaluator call (its fixed cost is paid
+ * once; its cost per lane stays), so a bisection evaluates both halves and
+ * both of their midpoints in one call; a Newton step its new segment,
+ * midpoint and ends; a refinement step up to 8 candidate points.
  */
 #include <math.h>
 #include <string.h>
@@ -63,7 +66,7 @@ typedef struct ctx {
     tape_ws_t *ws;
     const double *o, *d;
     int deriv;       /* derivatives wanted (all certified methods but mrfro) */
-    int lazy;        /* ...only where the interval test cannot exclude (not lipschitz) */
+    int skip;        /* nodes with 0 ∉ G(T) are dropped unseen (see eval_nodes) */
     uint64_t evals;  /* evaluator calls */
     uint64_t nodes;  /* segments examined */
 } ctx_t;
@@ -73,7 +76,9 @@ typedef struct lanes {
     int n;
     double lo[NL], hi[NL];
     unsigned char pt[NL];
-    iv_grad_t out[NL];
+    iv_t v[NL];     /* f over the lane's box (tape_eval_ray) */
+    iv_t dv[NL];    /* ∇f·d there; entire without derivatives */
+    double rnd[NL]; /* the rounding bound of tape_eval_ray; +inf without derivatives */
 } lanes_t;
 
 static int lane_point(lanes_t *L, double t)
@@ -94,47 +99,20 @@ static int lane_box(lanes_t *L, double a, double b)
     return L->n++;
 }
 
+/* One pass of the ray evaluator (expr/tape.h): a point lane is f at the
+ * rounded point p~(t); a segment lane encloses the exact segment and its
+ * rounded points; with derivatives, g' along d and the rounding bound. */
 static void run(ctx_t *c, lanes_t *L, int grad)
 {
-    iv_box_t box[NL];
-    for (int k = 0; k < L->n; k++) {
-        double pa[3], pb[3];
-        ray_point(c->o, c->d, L->lo[k], pa);
-        iv_t *ax = &box[k].x;
-        if (L->pt[k]) {
-            for (int i = 0; i < 3; i++)
-                ax[i] = iv_point(pa[i]);
-            continue;
-        }
-        /* The exact segment o + [a,b]·d, hulled with the rounded points of a and
-         * b: fl(o + fl(t·d)) is monotone in t, so every rounded point of T lies
-         * between those two and the box encloses it too. */
-        ray_point(c->o, c->d, L->hi[k], pb);
-        iv_t T = iv_make(L->lo[k], L->hi[k]);
-        for (int i = 0; i < 3; i++) {
-            iv_t s = iv_add(iv_point(c->o[i]), iv_mul(T, iv_point(c->d[i])));
-            ax[i] = iv_hull(iv_hull(s, iv_point(pa[i])), iv_point(pb[i]));
-        }
-    }
-    if (grad) {
-        tape_eval_grad(c->tape, c->ws, (size_t)L->n, box, L->out);
-    } else {
-        iv_t v[NL];
-        tape_eval_interval(c->tape, c->ws, (size_t)L->n, box, v);
-        for (int k = 0; k < L->n; k++) {
-            L->out[k].v = v[k];
-            L->out[k].dx = L->out[k].dy = L->out[k].dz = iv_entire();
-        }
-    }
+    iv_t T[NL];
+    for (int k = 0; k < L->n; k++)
+        T[k] = iv_make(L->lo[k], L->hi[k]);
+    tape_eval_ray(c->tape, c->ws, c->o, c->d, (size_t)L->n, T, L->v, grad ? L->dv : NULL,
+                  grad ? L->rnd : NULL);
+    if (!grad)
+        for (int k = 0; k < L->n; k++)
+            L->dv[k] = iv_entire(), L->rnd[k] = INFINITY;
     c->evals++;
-}
-
-/* g' = ∇f·d from a gradient enclosure */
-static iv_t dir_deriv(const ctx_t *c, const iv_grad_t *g)
-{
-    iv_t r = iv_mul(g->dx, iv_point(c->d[0]));
-    r = iv_add(r, iv_mul(g->dy, iv_point(c->d[1])));
-    return iv_add(r, iv_mul(g->dz, iv_point(c->d[2])));
 }
 
 /* ---- nodes ----------------------------------------------------------------------------- */
@@ -142,7 +120,7 @@ static iv_t dir_deriv(const ctx_t *c, const iv_grad_t *g)
 typedef struct node {
     double a, b, m;
     iv_t G;           /* F over the box of T (natural inclusion) */
-    iv_t Gp;          /* G'(T) = ∇F(box)·d; entire without derivatives */
+    iv_t Gp;          /* G'(T) ⊇ ∇f(box)·d; entire without derivatives */
     iv_t R;           /* the rounding of the points: f at any rounded point of T, or
                        * the exact g(t), lies in [g(m)] + G'(T)·(T - m) + R */
     iv_t ga, gb, gm;  /* f at the rounded points of a, b, m */
@@ -156,98 +134,122 @@ static void node_init(node_t *n, double a, double b)
     n->m = 0.5 * a + 0.5 * b;
 }
 
-static double mid_deriv(const ctx_t *c, const iv_grad_t *g)
+static double mid_deriv(const ctx_t *c, const lanes_t *L, int k)
 {
-    return c->deriv ? iv_mid(dir_deriv(c, g)) : NAN;
+    return c->deriv ? iv_mid(L->dv[k]) : NAN;
 }
 
-/* R: the points evaluated are p~(t) = p(t) + r(t) with |r_i(t)| <= 2^-52(|o_i| +
- * 2|t d_i|) (two roundings of at most 2^-53 relative each); f(p~(t)) - f(p~(m))
- * and g(t) - f(p~(m)) differ from ∇f(ξ)·(t - m)d by ∇f(ξ)·(r(t) - r(m)) or
- * ∇f(ξ)·(-r(m)), ξ in the box; we bound |r(t) - r(m)| by twice the larger r. */
-static iv_t rounding_term(const ctx_t *c, const node_t *n, const iv_grad_t *box)
+/* G' and R from a box lane.  R: the points evaluated are p~(t), and
+ * p~(t) - p~(m) = (t - m)d + e, o + t·d - p~(m) = (t - m)d + e', with
+ * |e_i|, |e'_i| <= rho_i (tape.h); so f(p~(t)) - f(p~(m)) and g(t) - f(p~(m))
+ * differ from ∇f(ξ)·(t - m)d (ξ in the box) by at most the lane's rounding
+ * bound. */
+static void set_deriv(node_t *n, const lanes_t *L, int ib)
 {
-    double tmax = fmax(fabs(n->a), fabs(n->b));
-    const iv_t *gi = &box->dx;
-    iv_t sum = iv_point(0.0);
-    for (int i = 0; i < 3; i++) {
-        double r = iv_up(iv_up(fabs(c->o[i]) + iv_up(2.0 * tmax * fabs(c->d[i]))) * 0x1p-51);
-        sum = iv_add(sum, iv_mul(gi[i], iv_make(-r, r)));
-    }
-    return sum;
+    n->Gp = L->dv[ib];
+    n->R = iv_make(-L->rnd[ib], L->rnd[ib]);
 }
 
-static void set_deriv(const ctx_t *c, node_t *n, const iv_grad_t *box, const iv_grad_t *mid,
-                      const iv_grad_t *a, const iv_grad_t *b)
+/* the derivative estimates at the points (lanes of L; -1: not evaluated) */
+static void set_deriv_points(const ctx_t *c, node_t *n, const lanes_t *L, int im, int ia, int ie)
 {
-    n->Gp = dir_deriv(c, box);
-    n->R = rounding_term(c, n, box);
-    n->dgm = mid_deriv(c, mid);
-    if (a)
-        n->dga = mid_deriv(c, a);
-    if (b)
-        n->dgb = mid_deriv(c, b);
+    n->dgm = mid_deriv(c, L, im);
+    if (ia >= 0)
+        n->dga = mid_deriv(c, L, ia);
+    if (ie >= 0)
+        n->dgb = mid_deriv(c, L, ie);
 }
+
+/* 0 ∉ G(T): no root (an empty G — f defined nowhere on T — also holds none) */
+static int excluded(const node_t *n) { return !iv_contains(n->G, 0.0); }
 
 /* Evaluate k (<= 2) nodes: box and midpoint, and both ends when `ends` (else
- * the caller has set them).  Derivative methods get G' and the derivatives at
- * the points from a gradient pass; except lipschitz, whose test needs G' on
- * every segment, that pass is made only for the nodes the interval test could
- * not exclude (an interval pass costs a fraction of a gradient pass, and
- * most segments of a search are excluded). */
-static void eval_nodes(ctx_t *c, node_t *n, int k, int ends)
+ * the caller has set them); derivative methods get G', R and the derivative
+ * estimates at the points from the same pass.  (With three partials per slot
+ * a derivative pass cost ~6 interval passes, and an interval pass came first
+ * to spare it on excluded segments; with the one tangent of tape_eval_ray it
+ * costs ~2, and the second pass no longer pays.)
+ *
+ * `skip`: the caller drops a node with 0 ∉ G(T) before looking at anything
+ * else (the search of mitchell, newton, newton-ah).  The boxes then go first
+ * and the points only for the nodes that remain: the evaluator's cost is per
+ * lane, and with the octree most segments are excluded by their box alone.
+ * A lane's result does not depend on the others, so the values (and the
+ * hits) are the same either way; only the number of passes changes. */
+static void eval_nodes(ctx_t *c, node_t *n, int k, int ends, int skip)
 {
     lanes_t L = {0};
     int ib[2], im[2], ia[2], ie[2];
-    for (int j = 0; j < k; j++) {
+    for (int j = 0; j < k; j++)
         ib[j] = lane_box(&L, n[j].a, n[j].b);
+    if (skip) {
+        run(c, &L, c->deriv);
+        lanes_t P = {0};
+        for (int j = 0; j < k; j++) {
+            n[j].G = L.v[ib[j]];
+            if (excluded(&n[j])) {
+                /* never looked at again; set so nothing indeterminate is copied */
+                n[j].gm = n[j].Gp = n[j].R = iv_entire();
+                n[j].dgm = NAN;
+                if (ends)
+                    n[j].ga = n[j].gb = iv_entire(), n[j].dga = n[j].dgb = NAN;
+                im[j] = -1;
+                continue;
+            }
+            /* the points go to P, the box stays in L */
+            im[j] = lane_point(&P, n[j].m);
+            if (ends) {
+                ia[j] = lane_point(&P, n[j].a);
+                ie[j] = lane_point(&P, n[j].b);
+            }
+        }
+        if (P.n == 0)
+            return;
+        run(c, &P, c->deriv);
+        for (int j = 0; j < k; j++) {
+            if (im[j] < 0)
+                continue;
+            n[j].gm = P.v[im[j]];
+            n[j].Gp = n[j].R = iv_entire();
+            n[j].dgm = NAN;
+            if (ends) {
+                n[j].ga = P.v[ia[j]];
+                n[j].gb = P.v[ie[j]];
+                n[j].dga = n[j].dgb = NAN;
+            }
+            if (c->deriv) {
+                set_deriv(&n[j], &L, ib[j]);
+                set_deriv_points(c, &n[j], &P, im[j], ends ? ia[j] : -1, ends ? ie[j] : -1);
+            }
+        }
+        return;
+    }
+    for (int j = 0; j < k; j++) {
         im[j] = lane_point(&L, n[j].m);
         if (ends) {
             ia[j] = lane_point(&L, n[j].a);
             ie[j] = lane_point(&L, n[j].b);
         }
     }
-    const int grad_now = c->deriv && !c->lazy;
-    run(c, &L, grad_now);
+    run(c, &L, c->deriv);
     for (int j = 0; j < k; j++) {
-        n[j].G = L.out[ib[j]].v;
-        n[j].gm = L.out[im[j]].v;
+        n[j].G = L.v[ib[j]];
+        n[j].gm = L.v[im[j]];
         n[j].Gp = n[j].R = iv_entire();
         n[j].dgm = NAN;
         if (ends) {
-            n[j].ga = L.out[ia[j]].v;
-            n[j].gb = L.out[ie[j]].v;
+            n[j].ga = L.v[ia[j]];
+            n[j].gb = L.v[ie[j]];
             n[j].dga = n[j].dgb = NAN;
         }
-        if (grad_now)
-            set_deriv(c, &n[j], &L.out[ib[j]], &L.out[im[j]], ends ? &L.out[ia[j]] : NULL,
-                      ends ? &L.out[ie[j]] : NULL);
-    }
-    if (!c->deriv || grad_now)
-        return;
-    lanes_t D = {0};
-    int need[2] = {0, 0}, any = 0;
-    for (int j = 0; j < k; j++) {
-        if (!iv_contains(n[j].G, 0.0))
-            continue;
-        need[j] = any = 1;
-        ib[j] = lane_box(&D, n[j].a, n[j].b);
-        im[j] = lane_point(&D, n[j].m);
-        if (ends) {
-            ia[j] = lane_point(&D, n[j].a);
-            ie[j] = lane_point(&D, n[j].b);
+        if (c->deriv) {
+            set_deriv(&n[j], &L, ib[j]);
+            set_deriv_points(c, &n[j], &L, im[j], ends ? ia[j] : -1, ends ? ie[j] : -1);
         }
     }
-    if (!any)
-        return;
-    run(c, &D, 1);
-    for (int j = 0; j < k; j++)
-        if (need[j])
-            set_deriv(c, &n[j], &D.out[ib[j]], &D.out[im[j]], ends ? &D.out[ia[j]] : NULL,
-                      ends ? &D.out[ie[j]] : NULL);
 }
 
-static void eval_full(ctx_t *c, node_t *n, int k) { eval_nodes(c, n, k, 1); }
+static void eval_full(ctx_t *c, node_t *n, int k) { eval_nodes(c, n, k, 1, c->skip); }
 
 /* The halves of p: ends known from p, one pass for both boxes and midpoints. */
 static void eval_halves(ctx_t *c, const node_t *p, node_t *l, node_t *r)
@@ -257,7 +259,7 @@ static void eval_halves(ctx_t *c, const node_t *p, node_t *l, node_t *r)
     node_init(&h[1], p->m, p->b);
     h[0].ga = p->ga, h[0].dga = p->dga, h[0].gb = p->gm, h[0].dgb = p->dgm;
     h[1].ga = p->gm, h[1].dga = p->dgm, h[1].gb = p->gb, h[1].dgb = p->dgb;
-    eval_nodes(c, h, 2, 0);
+    eval_nodes(c, h, 2, 0, c->skip);
     *l = h[0];
     *r = h[1];
 }
@@ -294,8 +296,6 @@ static int tiny(double a, double b)
     return b - a <= 4.0 * ulp(fmax(fabs(a), fabs(b)));
 }
 
-/* 0 ∉ G(T): no root (an empty G — f defined nowhere on T — also holds none) */
-static int excluded(const node_t *n) { return !iv_contains(n->G, 0.0); }
 
 /* 0 ∉ G'(T): g strictly monotone on T */
 static int monotone(const node_t *n) { return !iv_is_empty(n->Gp) && !iv_contains(n->Gp, 0.0); }
@@ -411,15 +411,15 @@ static ray_hit_kind_t refine(ctx_t *c, double a, double b, int sa, iv_t ga, doub
 #define REFINE_UPDATE(L)                                                                   \
     do {                                                                                   \
         for (int k_ = 0; k_ < (L).n; k_++) {                                               \
-            int s_ = sgn((L).out[k_].v);                                                   \
+            int s_ = sgn((L).v[k_]);                                                   \
             if (s_ != sa && (L).lo[k_] < b)                                                \
-                b = (L).lo[k_], gb = (L).out[k_].v;                                        \
+                b = (L).lo[k_], gb = (L).v[k_];                                        \
             if (s_ == -sa)                                                                 \
                 proven = 1;                                                                \
         }                                                                                  \
         for (int k_ = 0; k_ < (L).n; k_++)                                                 \
-            if (sgn((L).out[k_].v) == sa && (L).lo[k_] > a && (L).lo[k_] < b)              \
-                a = (L).lo[k_], ga = (L).out[k_].v;                                        \
+            if (sgn((L).v[k_]) == sa && (L).lo[k_] > a && (L).lo[k_] < b)              \
+                a = (L).lo[k_], ga = (L).v[k_];                                        \
     } while (0)
 
     if (!tiny(a, b)) {
@@ -514,7 +514,7 @@ static int newton_case(ctx_t *c, node_t *np, ray_result_t *res)
             break;
         node_t nn;
         node_init(&nn, lo, hi);
-        eval_full(c, &nn, 1);
+        eval_nodes(c, &nn, 1, 1, 0); /* its points are used even if excluded */
         c->nodes++;
         if (excluded(&nn) && !proven)
             return RAY_MISS;
@@ -852,7 +852,8 @@ ray_hit_kind_t ray_find_root_n(const tape_t *tape, tape_ws_t *ws, ray_method_t m
     if (k == 0)
         return RAY_MISS;
     const int deriv = m != RAY_MRFRO && m != RAY_SAMPLING;
-    ctx_t c = {tape, ws, o, d, deriv, deriv && m != RAY_LIPSCHITZ, 0, 0};
+    const int skip = m == RAY_MITCHELL || m == RAY_NEWTON || m == RAY_NEWTON_AH;
+    ctx_t c = {tape, ws, o, d, deriv, skip, 0, 0};
     ray_hit_kind_t kind = RAY_MISS;
     int w = -1;
     if (m == RAY_SAMPLING) {

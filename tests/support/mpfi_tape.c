@@ -49,8 +49,9 @@ static int compare(mpfi_srcptr a, mpfi_srcptr b, mpfi_ptr tmp)
     return 0;
 }
 
-int oracle_eval(const tape_t *t, const double p[3], oracle_const_t which, mpfi_t value,
-                mpfi_t grad[3])
+/* The evaluation at a point given in MPFI (the leaves take P exactly). */
+static int eval_at(const tape_t *t, mpfi_t P[3], oracle_const_t which, mpfi_t value,
+                   mpfi_t grad[3])
 {
     slot_t *S = malloc(t->n * sizeof *S);
     mpfi_t s, u;
@@ -72,7 +73,7 @@ int oracle_eval(const tape_t *t, const double p[3], oracle_const_t which, mpfi_t
         case TAPE_Y:
         case TAPE_Z: {
             int k = (int)c->op - TAPE_X;
-            mpfi_set_d(o->v, p[k]);
+            mpfi_set(o->v, P[k]);
             mpfi_set_ui(o->d[k], 1);
             break;
         }
@@ -253,6 +254,43 @@ int oracle_eval(const tape_t *t, const double p[3], oracle_const_t which, mpfi_t
     mpfi_clear(s);
     mpfi_clear(u);
     free(S);
+    return bad;
+}
+
+int oracle_eval(const tape_t *t, const double p[3], oracle_const_t which, mpfi_t value,
+                mpfi_t grad[3])
+{
+    mpfi_t P[3];
+    for (int k = 0; k < 3; k++) {
+        mpfi_init2(P[k], ORACLE_PREC);
+        mpfi_set_d(P[k], p[k]);
+    }
+    int bad = eval_at(t, P, which, value, grad);
+    for (int k = 0; k < 3; k++)
+        mpfi_clear(P[k]);
+    return bad;
+}
+
+int oracle_eval_ray(const tape_t *t, const double o[3], const double d[3], double tt,
+                    oracle_const_t which, mpfi_t value, mpfi_t dvalue, mpfi_t grad[3])
+{
+    mpfi_t P[3];
+    for (int k = 0; k < 3; k++) {
+        mpfi_init2(P[k], ORACLE_PREC);
+        mpfi_set_d(P[k], d[k]);
+        mpfi_mul_d(P[k], P[k], tt);
+        mpfi_add_d(P[k], P[k], o[k]);
+    }
+    int bad = eval_at(t, P, which, value, grad);
+    if (!bad) {
+        mpfi_set_ui(dvalue, 0);
+        for (int k = 0; k < 3; k++) {
+            mpfi_mul_d(P[k], grad[k], d[k]);
+            mpfi_add(dvalue, dvalue, P[k]);
+        }
+    }
+    for (int k = 0; k < 3; k++)
+        mpfi_clear(P[k]);
     return bad;
 }
 

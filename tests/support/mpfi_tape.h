@@ -24,6 +24,13 @@ typedef enum { ORACLE_CONST_LO, ORACLE_CONST_HI } oracle_const_t;
 int oracle_eval(const tape_t *t, const double p[3], oracle_const_t which, mpfi_t value,
                 mpfi_t grad[3]);
 
+/* On the ray o + tt·d (the point computed in MPFI, exact or within 2^-256
+ * relative, not rounded to doubles): value = f, grad = ∇f (required here)
+ * and dvalue = ∇f·d.  Same return convention as oracle_eval, with the
+ * gradient always requested. */
+int oracle_eval_ray(const tape_t *t, const double o[3], const double d[3], double tt,
+                    oracle_const_t which, mpfi_t value, mpfi_t dvalue, mpfi_t grad[3]);
+
 /* Does the double interval [lo, hi] contain the MPFI interval v? */
 int oracle_contained(mpfi_t v, iv_t d);
 

@@ -7,8 +7,9 @@
  *              same rays: ray_camera_dir), threads over pixels;
  *   octree     built once with the scene's [octree] settings (--depth
  *              overrides); its build time is reported apart;
- *   ivoct      for each method, ray_render with the octree source and with
- *              the box source (--no-octree), best time of --reps;
+ *   ivoct      for each method, ray_render with the octree source (--threads
+ *              and 1 thread) and with the box source (--no-octree, --threads),
+ *              best time of --reps;
  *   openvdb    the level set of bench/vdb_raycast.h (band from the octree's
  *              surface leaves), built once (time apart), cast with 1 thread
  *              and with --threads, best of --reps each.
@@ -333,15 +334,20 @@ int main(int argc, char **argv)
         }
         ray_octree_source_t os;
         ray_box_source_t bs;
-        ray_source_t srcs[2] = {ray_octree_source(&os, tree), ray_box_source(&bs, s.box)};
+        ray_source_t srcs[3] = {ray_octree_source(&os, tree), ray_octree_source(&os, tree),
+                                ray_box_source(&bs, s.box)};
         double *tbuf = malloc(R.npix * sizeof *tbuf);
         double *t_best = malloc(R.npix * sizeof *t_best);
         double best_time = INFINITY;
         for (size_t i = 0; i < R.npix; i++)
             t_best[i] = NAN;
         for (int k = 0; k < n_meth; k++) {
-            for (int v = 0; v < 2; v++) {
+            /* v: 0 the octree, 1 the same on one thread, 2 no octree */
+            for (int v = 0; v < 3; v++) {
+                if (v == 1 && threads == 1)
+                    continue;
                 ro.method = methods[k];
+                ro.threads = v == 1 ? 1 : threads;
                 double tmin = INFINITY;
                 ray_stats_t st;
                 for (int r = 0; r < reps; r++) {
@@ -355,8 +361,8 @@ int main(int argc, char **argv)
                 for (size_t i = 0; i < R.npix; i++)
                     tbuf[i] = img.hit[i] ? img.t[i] : NAN;
                 errs_t e = compare(&R, tbuf, h);
-                row(v == 0 ? "octree" : "no-octree", ray_method_name(methods[k]), st.threads, tmin,
-                    v == 0 ? build_s : 0, &e, &R);
+                row(v < 2 ? "octree" : "no-octree", ray_method_name(methods[k]), st.threads, tmin,
+                    v < 2 ? build_s : 0, &e, &R);
                 if (v == 0 && ray_method_certified(methods[k]) && tmin < best_time) {
                     best_time = tmin;
                     memcpy(t_best, tbuf, R.npix * sizeof *tbuf);

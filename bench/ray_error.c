@@ -8,16 +8,19 @@
  *   octree     built once with the scene's [octree] settings (--depth
  *              overrides); its build time is reported apart;
  *   ivoct      for each method, ray_render with the octree source (--threads
- *              and 1 thread) and with the box source (--no-octree, --threads),
- *              best time of --reps;
+ *              and 1 thread) and with the box source (--no-octree, --threads);
+ *              the first timed --reps times (its best), the others once;
  *   openvdb    the level set of bench/vdb_raycast.h (band from the octree's
  *              surface leaves), built once (time apart), cast with 1 thread
  *              and with --threads, best of --reps each.
  * Each row: time, and against the reference over the pixels where both hit,
- * max and mean |t - t_ref|; pixels that disagree on hit/miss, and how many of
+ * max and mean |t - t_ref| (and the max over the pixels the reference does
+ * not call ambiguous); pixels that disagree on hit/miss, and how many of
  * those the reference calls ambiguous (the ray within ~1e-9 of touching the
  * surface, or the surface within ~1e-9 of the box; see ray_reference.h) and
- * how many are within a voxel of that (graze <= voxel edge).
+ * how many are within a voxel of that (graze <= voxel edge); and the pixel of
+ * the max error with its graze (how close its ray comes to touching the
+ * surface, relative: see ray_reference.h).
  *
  * Output: CSV (--csv, default bench/results/ray_error.csv) and a table on
  * stdout.
@@ -126,13 +129,16 @@ static void ref_free(ref_image_t *R)
 typedef struct errs {
     size_t hits, both;
     double max_err, mean_err;
+    double max_err_unamb; /* over the pixels the reference does not call ambiguous */
     size_t disagree, disagree_amb, disagree_voxel;
+    long worst;   /* the pixel of max_err, -1 when none */
 } errs_t;
 
 /* t: NaN on a miss */
 static errs_t compare(const ref_image_t *R, const double *t, double voxel)
 {
     errs_t e = {0};
+    e.worst = -1;
     double sum = 0;
     for (size_t i = 0; i < R->npix; i++) {
         int h = !isnan(t[i]);
@@ -148,8 +154,12 @@ static errs_t compare(const ref_image_t *R, const double *t, double voxel)
         double d = fabs(t[i] - R->r[i]);
         e.both++;
         sum += d;
-        if (d > e.max_err)
+        if (!R->amb[i] && d > e.max_err_unamb)
+            e.max_err_unamb = d;
+        if (d > e.max_err) {
             e.max_err = d;
+            e.worst = (long)i;
+        }
     }
     e.mean_err = e.both ? sum / (double)e.both : NAN;
     return e;
@@ -158,12 +168,17 @@ static errs_t compare(const ref_image_t *R, const double *t, double voxel)
 static FILE *csv;
 static const char *cur_surface;
 
+static int cur_width;
+
 static void row(const char *variant, const char *method, int threads, double time_s,
                 double build_s, const errs_t *e, const ref_image_t *R)
 {
-    fprintf(csv, "%s,%s,%s,%d,%.6f,%.6f,%zu,%zu,%zu,%.6e,%.6e,%zu,%zu,%zu,%zu,%zu\n", cur_surface,
-            variant, method, threads, time_s, build_s, R->n_hit, e->hits, e->both, e->max_err,
-            e->mean_err, e->disagree, e->disagree_amb, e->disagree_voxel, R->n_amb, R->npix);
+    long w = e->worst;
+    fprintf(csv, "%s,%s,%s,%d,%.6f,%.6f,%zu,%zu,%zu,%.6e,%.6e,%zu,%zu,%zu,%zu,%zu,%ld,%ld,%.3e,%.6e\n",
+            cur_surface, variant, method, threads, time_s, build_s, R->n_hit, e->hits, e->both,
+            e->max_err, e->mean_err, e->disagree, e->disagree_amb, e->disagree_voxel, R->n_amb,
+            R->npix, w < 0 ? -1 : w % cur_width, w < 0 ? -1 : w / cur_width,
+            w < 0 ? NAN : R->graze[w], e->max_err_unamb);
     fflush(csv);
     printf("%-15s %-9s %-13s %3d %9.4f %9.3f %7zu %10.3e %10.3e %6zu %5zu %6zu\n", cur_surface,
            variant, method, threads, time_s, build_s, e->both, e->max_err, e->mean_err,
@@ -247,7 +262,8 @@ int main(int argc, char **argv)
     }
     fprintf(csv, "surface,variant,method,threads,time_s,build_s,ref_hits,hits,both_hit,"
                  "max_abs_err,mean_abs_err,disagree,disagree_ambiguous,disagree_within_voxel,"
-                 "ref_ambiguous,pixels\n");
+                 "ref_ambiguous,pixels,worst_col,worst_row,worst_graze,"
+                 "max_abs_err_unambiguous\n");
     printf("%-15s %-9s %-13s %3s %9s %9s %7s %10s %10s %6s %5s %6s\n", "surface", "variant",
            "method", "thr", "time s", "build s", "both", "max |dt|", "mean |dt|", "differ",
            "amb", "voxel");
@@ -280,6 +296,7 @@ int main(int argc, char **argv)
             status = 1;
             continue;
         }
+        cur_width = W;
         ref_image_t R = {0};
         if (reference(&s, &cam, threads, &R)) {
             fprintf(stderr, "ivoct_ray_error: %s: reference: out of memory\n", path);
@@ -350,7 +367,8 @@ int main(int argc, char **argv)
                 ro.threads = v == 1 ? 1 : threads;
                 double tmin = INFINITY;
                 ray_stats_t st;
-                for (int r = 0; r < reps; r++) {
+                /* the goal's variant is timed --reps times, the others once */
+                for (int r = 0; r < (v == 0 ? reps : 1); r++) {
                     if (ray_render(s.tape, &cam, &srcs[v], &ro, &img, &st, &err)) {
                         fprintf(stderr, "ivoct_ray_error: render: %s\n", err.msg);
                         return 1;

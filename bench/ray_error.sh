@@ -8,8 +8,8 @@
 # the MPFR reference of tests/support/ray_reference.c.  --quick: sphere and
 # gumdrop, 100x100, mitchell and lipschitz, one repetition (under a minute).
 # Other options go to ivoct_ray_error (--surfaces, --methods, --size, --threads,
-# --reps (repetitions of the octree renders at all threads and of the OpenVDB casts;
-# the other renders run once), --depth, --voxel, --half-width, --dump DIR).
+# --reps (repetitions of the octree renders and of the OpenVDB casts; the
+# no-octree renders run once), --depth, --voxel, --half-width, --dump DIR).
 # Writes bench/results/NAME.csv (one row per surface, variant, method, threads),
 # NAME.md (the tables of docs/BENCHMARKS.md) and NAME.load; NAME defaults to
 # ray_error (ray_error_quick with --quick).
@@ -93,8 +93,8 @@ for s in surfaces:
 print("\nAgainst the goal (ivoct's fastest certified method with the octree, %d threads, against the "
       "OpenVDB cast, %d threads; 'with builds': octree build + render against octree build + grid "
       "build + cast, the grid's band coming from the octree).\n" % (allthr, allthr))
-print("| surface | best certified | ivoct s | OpenVDB s | time ratio | ivoct+build s | OpenVDB+builds s | ratio with builds | ivoct 1t s | OpenVDB 1t s | ratio 1t | mean err ivoct | mean err OpenVDB | mean err ratio | max err ivoct (unamb.) | max err OpenVDB (unamb.) | max err ratio |")
-print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+print("| surface | best certified | ivoct s | OpenVDB s | time ratio | ivoct+build s | OpenVDB+builds s | ratio with builds | ivoct 1t s | OpenVDB 1t s | ratio 1t | ivoct 1t CPU s | OpenVDB 1t CPU s | ratio 1t CPU | mean err ivoct | mean err OpenVDB | mean err ratio | max err ivoct (unamb.) | max err OpenVDB (unamb.) | max err ratio |")
+print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
 for s in surfaces:
     cands = [r for r in rows if r["surface"] == s and r["variant"] == "octree" and int(r["threads"]) == allthr and r["method"] in CERTIFIED]
     v = g(s, "openvdb", "level-set", allthr); v1 = g(s, "openvdb", "level-set", 1)
@@ -106,9 +106,14 @@ for s in surfaces:
     ti, tv = float(b["time_s"]), float(v["time_s"])
     mi, mv = float(b["mean_abs_err"]), float(v["mean_abs_err"])
     xi, xv = float(b["max_abs_err_unambiguous"]), float(v["max_abs_err_unambiguous"])
-    print("| %s | %s | %.3f | %.3f | %.1f× | %.3f | %.3f | %.2f× | %.3f | %.3f | %.1f× | %.1e | %.1e | %.0e | %.1e | %.1e | %.0e |" % (
+    # the CPU columns: the certified method with the least thread CPU time on 1 thread
+    c1 = [r for r in rows if r["surface"] == s and r["variant"] == "octree" and int(r["threads"]) == 1 and r["method"] in CERTIFIED]
+    bc = min(c1, key=lambda r: float(r["cpu_1t_s"])) if c1 else b1
+    ci, cv = float(bc["cpu_1t_s"]), float(v1["cpu_1t_s"])
+    print("| %s | %s | %.3f | %.3f | %.1f× | %.3f | %.3f | %.2f× | %.3f | %.3f | %.1f× | %s | %.3f | %.1f× | %.1e | %.1e | %.0e | %.1e | %.1e | %.0e |" % (
         s, b["method"], ti, tv, ti / tv, ob + ti, ob + gb + tv, (ob + ti) / (ob + gb + tv),
         float(b1["time_s"]), float(v1["time_s"]), float(b1["time_s"]) / float(v1["time_s"]),
+        "%.3f%s" % (ci, "" if bc["method"] == b["method"] else " (" + bc["method"] + ")"), cv, ci / cv,
         mi, mv, mv / mi if mi > 0 else float("inf"), xi, xv, xv / xi if xi > 0 else float("inf")))
 EOF
 cat "$out/$name.load"

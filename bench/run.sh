@@ -15,3 +15,12 @@ for s in $comparison; do scenes+=("$root/scenes/$s.ini"); done
 
 echo "== octree build against dense sampling (issue 3)"
 bash "$here/octree.sh" --build "$build" "$@"
+
+echo "== render time against hit error, and the OpenVDB level-set baseline (issue 7)"
+if [ -x "$build/bench/ivoct_ray_error" ]; then
+    quick=()
+    for a in "$@"; do [ "$a" = --quick ] && quick=(--quick); done
+    bash "$here/ray_error.sh" --build "$build" ${quick[@]+"${quick[@]}"}
+else
+    echo "(skipped: no $build/bench/ivoct_ray_error; it needs export/ and MPFR)"
+fi

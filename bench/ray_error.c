@@ -31,6 +31,7 @@
  *                        [--size WxH] [--threads N] [--reps N] [--depth N]
  *                        [--voxel H] [--half-width N] [--csv F] [--quick]
  *                        [--dump DIR] */
+#define _POSIX_C_SOURCE 200809L /* clock_gettime */
 #include <math.h>
 #include <omp.h>
 #include <time.h>

@@ -48,4 +48,22 @@ else
     bash "$here/refine.sh" --build "$build" --eps "1e-2 1e-3 1e-4 1e-5"
 fi
 
+part "ray casting, Florez's layout (bench/ray.sh)"
+if [ "$quick" = 1 ]; then
+    bash "$here/ray.sh" --build "$build" --size 100x100 --reps 1 --surfaces "sphere gumdrop" \
+        --methods "mitchell lipschitz" --out ray-quick
+else
+    bash "$here/ray.sh" --build "$build" --reps 1
+fi
+
+part "render time against hit error, and the OpenVDB level-set baseline (bench/ray_error.sh)"
+if [ -x "$build/bench/ivoct_ray_error" ]; then
+    bash "$here/ray_error.sh" --build "$build" "${q[@]}"
+else
+    echo "(skipped: no $build/bench/ivoct_ray_error; it needs export/ and MPFR)"
+fi
+
+part "numerical stability stress cases (bench/stability.sh)"
+[ -f "$here/stability.sh" ] && bash "$here/stability.sh" --build "$build" "${q[@]}"
+
 part "done"

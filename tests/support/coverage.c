@@ -537,7 +537,8 @@ void cov_check_all(const tape_t *tape, const double box[6], const char *name, in
             cov_check_zero_line(&g, &cv, lines[l].axis, lines[l].t0, lines[l].t1, what, &r);
         t_sign += omp_get_wtime() - t1;
         t1 = omp_get_wtime();
-        cov_check_empty_cells(&g, t, what, &r);
+        if (!(cfgs & COV_NO_EMPTY))
+            cov_check_empty_cells(&g, t, what, &r);
         t_empty += omp_get_wtime() - t1;
 
         printf("%-44s D=%d leaves %6u  sign-change segments %7ld  zero samples %5ld  "
@@ -552,6 +553,7 @@ void cov_check_all(const tape_t *tape, const double box[6], const char *name, in
         out->undefined += r.undefined_checked;
         out->failures += r.failures;
         out->leaves = t->n_leaves;
+        out->max_error_bound = fmax(out->max_error_bound, t->stats.max_error_bound);
         if (out->min_segments < 0 || r.segments < out->min_segments)
             out->min_segments = r.segments;
         if (out->min_empty_checked < 0 || r.empty_checked < out->min_empty_checked)

@@ -121,6 +121,8 @@ enum {
     COV_CFG_ILIE = 1u << 2,       /* tests = interval, lipschitz, ilie */
     COV_CFG_REFINE = 1u << 3,     /* all three, refine = 2% of the box's largest edge */
     COV_CFG_ALL = 15u,
+    COV_NO_EMPTY = 1u << 4,       /* skip the empty-cell check (it costs an MPFI
+                                     evaluation per empty cell) */
 };
 
 typedef struct cov_summary {
@@ -128,6 +130,7 @@ typedef struct cov_summary {
     long min_segments, min_empty_checked; /* the least over the configurations */
     long failures;   /* property failures over all configurations */
     uint32_t leaves; /* of the last configuration */
+    double max_error_bound; /* the largest certified leaf error bound, over the builds */
     double build_s;  /* builds, summed */
 } cov_summary_t;
 

@@ -276,6 +276,7 @@ static void real_roots(const ro_poly_t *p, const mpfr_t a, const mpfr_t b, ro_ro
 void ro_init(ro_ctx_t *c, const tape_t *tape)
 {
     c->tape = tape;
+    c->length = 1;
     poly_init(&c->p);
     poly_init(&c->dp);
     poly_init(&c->ddp);
@@ -325,7 +326,7 @@ void ro_ray(ro_ctx_t *c, ro_const_t which, const double o[3], const double d[3],
         poly_eval(c->y, &c->dp, k == -2 ? c->a : k == -1 ? c->b : c->C2.r[k]);
         L = fmax(L, fabs(mpfr_get_d(c->y, MPFR_RNDN)));
     }
-    double thr = 1e-9 * L;
+    double thr = 1e-9 * L * c->length;
     out->hit = c->R.n > 0;
     out->r = out->hit ? mpfr_get_d(c->R.r[0], MPFR_RNDN) : NAN;
     out->dp_r = NAN;
@@ -335,17 +336,20 @@ void ro_ray(ro_ctx_t *c, ro_const_t which, const double o[3], const double d[3],
     }
     out->near_double = out->near_box = 0;
     out->gmin = INFINITY;
+    out->t_gmin = NAN;
     for (int e = 0; e < 2; e++) {
         poly_eval(c->y, &c->p, e ? c->b : c->a);
         double v = fabs(mpfr_get_d(c->y, MPFR_RNDN));
-        out->gmin = fmin(out->gmin, v);
+        if (v < out->gmin)
+            out->gmin = v, out->t_gmin = e ? t1 : t0;
         if (v <= thr)
             out->near_box = 1;
     }
     for (int k = 0; k < c->C.n; k++) {
         poly_eval(c->y, &c->p, c->C.r[k]);
         double v = fabs(mpfr_get_d(c->y, MPFR_RNDN));
-        out->gmin = fmin(out->gmin, v);
+        if (v < out->gmin)
+            out->gmin = v, out->t_gmin = mpfr_get_d(c->C.r[k], MPFR_RNDN);
         if (c->R.n >= 2 && mpfr_greater_p(c->C.r[k], c->R.r[1]))
             continue;
         if (v <= thr)

@@ -13,11 +13,14 @@
  * A ray is *ambiguous* when the answer of a double-precision renderer may
  * legitimately differ from the exact one:
  *  - near a double root: a critical point c before the second root (or t1)
- *    with |p(c)| <= 1e-9 L, L = max |p'| on [t0, t1] (the ray comes within
- *    about 1e-9 of touching the surface: a silhouette, a whisker, a singular
- *    point) -- near_double;
- *  - near the box: |p(t0)| or |p(t1)| <= 1e-9 L (the surface within about 1e-9
- *    of where the ray enters or leaves the box) -- near_box. */
+ *    with |p(c)| <= 1e-9 L ell, L = max |p'| on [t0, t1] (the ray comes within
+ *    about 1e-9 ell of touching the surface: a silhouette, a whisker, a
+ *    singular point) -- near_double;
+ *  - near the box: |p(t0)| or |p(t1)| <= 1e-9 L ell (the surface within about
+ *    1e-9 ell of where the ray enters or leaves the box) -- near_box;
+ * where ell is the scene's length scale (ro_ctx_t.length, 1 unless set: the
+ * thresholds are relative to the scene, so that a scene scaled by 1e-8 is not
+ * all ambiguous). */
 #ifndef IVOCT_TEST_RAY_ORACLE_H
 #define IVOCT_TEST_RAY_ORACLE_H
 
@@ -43,6 +46,7 @@ typedef struct ro_roots {
 /* Per-thread scratch. */
 typedef struct ro_ctx {
     const tape_t *tape;
+    double length; /* the scene's length scale for the ambiguity thresholds; 1 */
     ro_poly_t *slot;
     ro_poly_t p, dp, ddp;
     mpfr_t tmp, a, b, x, y;
@@ -55,6 +59,7 @@ typedef struct ro_answer {
     double dp_r;   /* |p'(r)| */
     double gmin;   /* min |p| over the critical points in [t0, t1] and the ends (on a miss:
                     * how close the ray comes to the surface, in units of f) */
+    double t_gmin; /* where (rounded to nearest) */
     int near_double, near_box;
     int ambiguous; /* near_double || near_box */
 } ro_answer_t;

@@ -73,6 +73,13 @@ void tu_result_row(const char *suite, const char *name, const char *outcome, dou
     FILE *f = fopen(path, "a");
     if (!f)
         return;
-    fprintf(f, "%s,%s,%s,%.3f,%.3g\n", suite, name, outcome, time_s, error);
+    /* commas inside a field (names like "+1e3(1,1,1)") would split it: ';' instead */
+    const char *field[3] = {suite, name, outcome};
+    for (int k = 0; k < 3; k++) {
+        for (const char *c = field[k]; *c; c++)
+            fputc(*c == ',' ? ';' : *c, f);
+        fputc(',', f);
+    }
+    fprintf(f, "%.3f,%.3g\n", time_s, error);
     fclose(f);
 }

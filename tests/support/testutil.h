@@ -38,7 +38,7 @@ double tu_now(void);
 
 /* One result row for a benchmark table: when IVOCT_STAB_CSV names a file,
  * append "suite,case,outcome,time_s,error" to it (bench/stability.sh sets it;
- * the tests run without it).  outcome must hold no comma. */
+ * the tests run without it).  Commas inside the fields are written as ';'. */
 void tu_result_row(const char *suite, const char *name, const char *outcome, double time_s,
                    double error);
 

@@ -64,6 +64,6 @@ else
 fi
 
 part "numerical stability stress cases (bench/stability.sh)"
-[ -f "$here/stability.sh" ] && bash "$here/stability.sh" --build "$build" "${q[@]}"
+bash "$here/stability.sh" --build "$build"
 
 part "done"

@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 uint64_t tu_seed(uint64_t fallback)
 {
@@ -54,4 +55,31 @@ void tu_free_list(char **list, int n)
     for (int i = 0; i < n; i++)
         free(list[i]);
     free(list);
+}
+
+double tu_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void tu_result_row(const char *suite, const char *name, const char *outcome, double time_s,
+                   double error)
+{
+    const char *path = getenv("IVOCT_STAB_CSV");
+    if (!path || !*path)
+        return;
+    FILE *f = fopen(path, "a");
+    if (!f)
+        return;
+    /* commas inside a field (names like "+1e3(1,1,1)") would split it: ';' instead */
+    const char *field[3] = {suite, name, outcome};
+    for (int k = 0; k < 3; k++) {
+        for (const char *c = field[k]; *c; c++)
+            fputc(*c == ',' ? ';' : *c, f);
+        fputc(',', f);
+    }
+    fprintf(f, "%.3f,%.3g\n", time_s, error);
+    fclose(f);
 }

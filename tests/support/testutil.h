@@ -33,4 +33,13 @@ const char *tu_source_dir(void);
 int tu_scene_files(char ***paths);
 void tu_free_list(char **list, int n);
 
+/* Wall-clock seconds (monotonic). */
+double tu_now(void);
+
+/* One result row for a benchmark table: when IVOCT_STAB_CSV names a file,
+ * append "suite,case,outcome,time_s,error" to it (bench/stability.sh sets it;
+ * the tests run without it).  Commas inside the fields are written as ';'. */
+void tu_result_row(const char *suite, const char *name, const char *outcome, double time_s,
+                   double error);
+
 #endif

@@ -6,7 +6,7 @@
 #   make asan     clang + AddressSanitizer/UBSan build in build/asan
 #   make test     both builds, then every test in both
 #   make demo     build, then run scripts/demo.sh (outputs in out/)
-#   make bench    build, then bench/run.sh
+#   make bench    build, then bench/run.sh (under 30 min; make bench-quick: ~2 min)
 #   make install  install into $(PREFIX) (default /usr/local)
 #   make clean    remove build/ and out/
 
@@ -24,7 +24,7 @@ ASAN_CONFIGURE    := cmake -S . -B $(ASAN_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo
 ASAN_ENV := IVOCT_ASAN=1 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
             UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 
-.PHONY: all deps build asan test demo bench install clean
+.PHONY: all deps build asan test demo bench bench-quick install clean
 
 all: build
 
@@ -53,6 +53,9 @@ demo: build
 
 bench: build
 	bash bench/run.sh
+
+bench-quick: build
+	bash bench/run.sh --quick
 
 # The prefix is baked into ivoct.pc at configure time, hence the reconfigure.
 install: deps

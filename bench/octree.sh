@@ -7,6 +7,10 @@
 # interleaved run so that both sides see the same machine load:
 #   ivoct build SCENE --depth D --tests {interval | interval,lipschitz} --threads {1 | 2}
 #       -> time_s, cells_visited, leaves, cells/s, bytes/leaf, peak bytes (from --stats)
+#   ivoct build SCENE --depth D --tests interval,ilie --refine EPS_D --threads 2
+#       EPS_D = the diagonal of a depth-D cell, the certified error of the uniform
+#       depth-D octree (and the resolution of sampling at depth D): the refined
+#       octree at equal certified error -> time_s, leaves, max_error_bound
 #   ivoct_dense SCENE --depth D --threads 2 --octree (the interval,lipschitz 2-thread tree)
 #       -> time of point sampling at the (2^D+1)^3 grid corners, cells with a sign
 #          change, and the cells the octree keeps that sampling drops
@@ -58,7 +62,7 @@ work=$(mktemp -d /tmp/ivoct-bench.XXXXXX)
 trap 'rm -rf "$work"' EXIT
 
 echo "surface,depth,tests,threads,time_s,cells_visited,leaves,cells_per_s,bytes_per_leaf,peak_bytes,status" >"$ocsv"
-echo "surface,depth,threads,points,dense_time_s,dense_cells,octree_cells,octree_only,octree_only_surface,dense_only,octree_interval_time_s,octree_lipschitz_time_s,speedup_interval,speedup_lipschitz,status" >"$dcsv"
+echo "surface,depth,threads,points,dense_time_s,dense_cells,octree_cells,octree_only,octree_only_surface,dense_only,octree_interval_time_s,octree_lipschitz_time_s,octree_refine_time_s,speedup_interval,speedup_lipschitz,speedup_refine,refine_eps,refine_leaves,refine_max_error,status" >"$dcsv"
 
 load() { cut -d' ' -f1-3 /proc/loadavg; }
 echo "octree benchmark: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), load $(load)"
@@ -77,6 +81,19 @@ predicted_ok() {
 }
 
 json() { "$PY" -c "import json,sys; d=json.load(open(sys.argv[1])); print(${2})" "$1"; }
+
+# cell_diagonal SCENE D: the diagonal of a depth-D cell of the scene's box
+cell_diagonal() {
+    "$PY" - "$1" "$2" <<'PYEOF'
+import math, sys
+for line in open(sys.argv[1]):
+    key, _, value = line.split(";")[0].partition("=")
+    if key.strip() == "box":
+        b = [float(v) for v in value.split()]
+        w = [(b[2 * i + 1] - b[2 * i]) / 2 ** int(sys.argv[2]) for i in range(3)]
+        print(repr(math.sqrt(sum(x * x for x in w))))
+PYEOF
+}
 
 for d in $depths; do
     for s in $surfaces; do
@@ -106,6 +123,21 @@ for d in $depths; do
                 printf '  %-15s depth %2d  %-18s %d thread(s): %8.3f s\n' "$s" "$d" "$tests" "$th" "$time_s"
             done
         done
+        # the refined octree at the certified error of the uniform one
+        eps=$(cell_diagonal "$scene" "$d")
+        rrow=,,
+        if [ "${prev[$s/refine]:-}" != skipped ] && predicted_ok "$s/refine" 5; then
+            "$IVOCT" build "$scene" --depth "$d" --tests interval,ilie --refine "$eps" --threads 2 \
+                --quiet --stats "$work/st.json"
+            rrow=$(json "$work/st.json" "','.join(str(x) for x in [d['time_s'], d['leaves'], d['max_error_bound']])")
+            row=$(json "$work/st.json" "','.join(str(x) for x in [d['time_s'], d['cells_visited'], d['leaves'], d['cells_visited'] / max(d['time_s'], 1e-9), d['bytes_per_leaf'], d['peak_bytes']])")
+            echo "$s,$d,\"interval,ilie refine $eps\",2,$row,ok" >>"$ocsv"
+            prev[$s/refine]=${rrow%%,*}
+            printf '  %-15s depth %2d  interval,ilie --refine %.3g, 2 threads: %8.3f s\n' "$s" "$d" "$eps" "${rrow%%,*}"
+        else
+            prev[$s/refine]=skipped
+        fi
+        tr=${rrow%%,*}
         # the dense baseline, right after the octrees of the same surface and depth
         # compared with the interval,lipschitz tree when it was built at this depth
         cmp_args=()
@@ -120,8 +152,8 @@ for d in $depths; do
 import sys
 dt = float(sys.argv[1])
 r = [('%.3f' % (dt / float(t)) if t else '') for t in sys.argv[2:]]
-print(','.join(r))" "$dt" "$ti" "$tl")
-        echo "$s,$d,2,$row,$ti,$tl,$ratios,ok" >>"$dcsv"
+print(','.join(r))" "$dt" "$ti" "$tl" "$tr")
+        echo "$s,$d,2,$row,$ti,$tl,$tr,$ratios,$eps,${rrow#*,},ok" >>"$dcsv"
         printf '  %-15s depth %2d  dense sampling     2 threads: %8.3f s  (octree/dense speed-up: %s)\n' "$s" "$d" "$dt" "$ratios"
     done
 done
@@ -164,16 +196,30 @@ p("Dense sampling at the (2^d+1)^3 corners (2 threads) against the octree (2 thr
 p()
 p("| surface | depth | points | dense (s) | octree interval (s) | octree interval,lipschitz (s) | speed-up interval | speed-up i+l | sign-change cells | octree cells (i+l) | kept by octree, dropped by sampling | of which surface (5^3 sampling) | sign change, not in octree |")
 p("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+f3 = lambda x: f"{float(x):.3f}" if x else "-"
+n = lambda x: f"{int(x):,}" if x else "-"
 for r in dense_rows:
     if r["status"] != "ok":
         p(f"| {r['surface']} | {r['depth']} | skipped | | | | | | | | | | |")
         continue
-    f3 = lambda x: f"{float(x):.3f}" if x else "-"
-    n = lambda x: f"{int(x):,}" if x else "-"
     p(f"| {r['surface']} | {r['depth']} | {float(r['points']):.3g} | {f3(r['dense_time_s'])} | "
       f"{f3(r['octree_interval_time_s'])} | {f3(r['octree_lipschitz_time_s'])} | "
       f"{r['speedup_interval'] or '-'} | {r['speedup_lipschitz'] or '-'} | {n(r['dense_cells'])} | "
       f"{n(r['octree_cells'])} | {n(r['octree_only'])} | {n(r['octree_only_surface'])} | {n(r['dense_only'])} |")
+p()
+p("At equal certified error: the refined octree (interval,ilie --refine EPS, EPS = the")
+p("diagonal of a depth-d cell, the error bound of the uniform depth-d octree and the")
+p("resolution of sampling at depth d) against dense sampling at depth d (2 threads each):")
+p()
+p("| surface | depth | EPS | dense (s) | refined octree (s) | speed-up | refined leaves | its certified max error | uniform i+l leaves |")
+p("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+for r in dense_rows:
+    if r["status"] != "ok":
+        continue
+    e = lambda x: f"{float(x):.3g}" if x else "-"
+    p(f"| {r['surface']} | {r['depth']} | {e(r['refine_eps'])} | {f3(r['dense_time_s'])} | "
+      f"{f3(r['octree_refine_time_s'])} | {r['speedup_refine'] or '-'} | {n(r['refine_leaves'])} | "
+      f"{e(r['refine_max_error'])} | {n(r['octree_cells'])} |")
 p()
 p(f"Total {total} s; load average at the end {load}.")
 text = "\n".join(out) + "\n"

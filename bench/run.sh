@@ -3,7 +3,7 @@
 #
 #   bash bench/run.sh [--quick] [--build DIR]
 #
-# Full: about 30 minutes on a 2-core machine; --quick: a few surfaces at low
+# Full: under 30 minutes on a quiet 2-core machine; --quick: a few surfaces at low
 # depth and small images, about 3 minutes (a smoke run of every part, not numbers
 # to quote).  Each part can be run alone; see the header of each script.
 set -euo pipefail
@@ -45,7 +45,8 @@ if [ "$quick" = 1 ]; then
     bash "$here/refine.sh" --build "$build" --surfaces sphere --eps "1e-2 1e-3" \
         --plot-dir "$root/bench/results"
 else
-    bash "$here/refine.sh" --build "$build" --eps "1e-2 1e-3 1e-4 1e-5"
+    # 1e-5 on gumdrop and McMullen takes minutes each: run refine.sh alone for it
+    bash "$here/refine.sh" --build "$build" --eps "1e-2 1e-3 1e-4" --threads 2
 fi
 
 part "ray casting, Florez's layout (bench/ray.sh)"
@@ -58,7 +59,8 @@ fi
 
 part "render time against hit error, and the OpenVDB level-set baseline (bench/ray_error.sh)"
 if [ -x "$build/bench/ivoct_ray_error" ]; then
-    bash "$here/ray_error.sh" --build "$build" "${q[@]}"
+    # one repetition (ray.sh above has timed the same renders already)
+    bash "$here/ray_error.sh" --build "$build" "${q[@]}" --reps 1
 else
     echo "(skipped: no $build/bench/ivoct_ray_error; it needs export/ and MPFR)"
 fi

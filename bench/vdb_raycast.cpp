@@ -206,8 +206,11 @@ extern "C" int vdb_rc_cast(const vdb_rc_t *g, const ray_camera_t *cam, int threa
         const Vec3d eye(cam->eye[0], cam->eye[1], cam->eye[2]);
         uint64_t nhit = 0;
         const double t0 = omp_get_wtime();
-        if (threads == 1) {
-            Intersector isect(proto);
+        const int nt = threads > 0 ? threads : omp_get_max_threads();
+#pragma omp parallel num_threads(nt) reduction(+ : nhit)
+        {
+            Intersector isect(proto);  // each thread its own accessor
+#pragma omp for schedule(dynamic, 1)
             for (int row = 0; row < H; row++)
                 for (int col = 0; col < W; col++) {
                     double d[3];
@@ -219,24 +222,6 @@ extern "C" int vdb_rc_cast(const vdb_rc_t *g, const ray_camera_t *cam, int threa
                     t[(size_t)row * W + col] = hit ? wt : NAN;
                     nhit += hit;
                 }
-        } else {
-            const int nt = threads > 0 ? threads : omp_get_max_threads();
-#pragma omp parallel num_threads(nt) reduction(+ : nhit)
-            {
-                Intersector isect(proto);  // each thread its own accessor
-#pragma omp for schedule(dynamic, 1)
-                for (int row = 0; row < H; row++)
-                    for (int col = 0; col < W; col++) {
-                        double d[3];
-                        ray_camera_dir(cam, col, row, d);
-                        RayT ray(eye, Vec3d(d[0], d[1], d[2]));
-                        Vec3d xyz;
-                        double wt;
-                        bool hit = isect.intersectsWS(ray, xyz, wt);
-                        t[(size_t)row * W + col] = hit ? wt : NAN;
-                        nhit += hit;
-                    }
-            }
         }
         *time_s = omp_get_wtime() - t0;
         *hits = nhit;

@@ -71,6 +71,11 @@ typedef struct worker {
     tape_clause_t *tape_store;  /* (OCT_MAX_DEPTH + 1) * 8 pruned tapes */
     tape_t tapes[OCT_MAX_DEPTH + 1][8];
     uint32_t *scratch;
+    /* Scratch of one classify call (8 cells at most), here rather than on the
+     * stack: the passes fill only the entries of the cells still open, which
+     * gcc's -Wmaybe-uninitialized cannot follow through the `open` indices. */
+    iv_box_t open_boxes[8]; /* the open cells' boxes, packed, for one pass */
+    iv_grad_t grad[8];      /* by cell: the gradient, where gradient_pass ran */
     oct_stats_t st;
 } worker_t;
 
@@ -285,7 +290,7 @@ static void gradient_pass(worker_t *w, const tape_t *t, const iv_box_t *boxes,
 {
     if (!nopen)
         return;
-    iv_box_t ob[8] = {0}; /* = {0}: gcc cannot see that nopen <= 8 */
+    iv_box_t *ob = w->open_boxes;
     iv_grad_t g[8];
     for (int j = 0; j < nopen; j++)
         ob[j] = boxes[open[j]];
@@ -302,7 +307,7 @@ static int lipschitz_pass(worker_t *w, const tape_t *t, const iv_box_t *boxes, i
 {
     if (!nopen)
         return 0;
-    iv_box_t cb[8] = {0}; /* = {0}: gcc cannot see that nopen <= 8 */
+    iv_box_t *cb = w->open_boxes;
     iv_t Fc[8];
     double c[8][3];
     for (int j = 0; j < nopen; j++) {
@@ -333,7 +338,7 @@ static int ilie_pass(worker_t *w, const tape_t *t, const iv_box_t *boxes, int *o
 {
     if (!nopen)
         return 0;
-    iv_box_t ob[8] = {0}; /* = {0}: gcc cannot see that nopen <= 8 */
+    iv_box_t *ob = w->open_boxes;
     ilie_t l[8];
     for (int j = 0; j < nopen; j++)
         ob[j] = boxes[open[j]];
@@ -396,7 +401,7 @@ static void classify(worker_t *w, const tape_t *t, int single_use, const cell_t 
     /* Indexed by cell k, filled for the cells still open when computed.  The
      * gradient serves the Lipschitz test and the normal cone of the
      * refinement, and is computed at most once per cell. */
-    iv_grad_t G[8] = {0}; /* = {0}: gcc cannot see that only computed entries are read */
+    iv_grad_t *G = w->grad;
     ilie_t L[8];
     int have_gradient = 0;
     if (lipschitz) {

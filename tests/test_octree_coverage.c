@@ -64,8 +64,7 @@
 
 static int depth_for_run(void)
 {
-    const char *asan = getenv("IVOCT_ASAN");
-    if (asan && *asan && strcmp(asan, "0") != 0)
+    if (tu_sanitizer_build())
         return 4;
     return tu_scale() >= 4 ? 6 : 5;
 }

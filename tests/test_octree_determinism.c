@@ -30,12 +30,6 @@ static const char *const SCENES[] = {
     "steiner-roman",
 };
 
-static int asan(void)
-{
-    const char *s = getenv("IVOCT_ASAN");
-    return s && *s && strcmp(s, "0") != 0;
-}
-
 static unsigned char *read_all(const char *path, size_t *n)
 {
     FILE *f = fopen(path, "rb");
@@ -81,7 +75,7 @@ static void test_threads(void **state)
     (void)state;
     char dir[] = "/tmp/ivoct-determinism-XXXXXX";
     assert_non_null(mkdtemp(dir));
-    int depth = asan() ? 5 : 6;
+    int depth = tu_sanitizer_build() ? 5 : 6;
     static const int runs[] = {1, 2, 3, 2};
     for (size_t i = 0; i < sizeof SCENES / sizeof *SCENES; i++) {
         char path[4096];
@@ -143,7 +137,7 @@ static void test_threads(void **state)
 static void test_slabs_unused(void **state)
 {
     (void)state;
-    int depth = asan() ? 5 : 6;
+    int depth = tu_sanitizer_build() ? 5 : 6;
     for (size_t i = 0; i < sizeof SCENES / sizeof *SCENES; i++) {
         char path[4096];
         snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), SCENES[i]);

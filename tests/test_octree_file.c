@@ -44,12 +44,6 @@
 
 static char g_dir[64];
 
-static int asan(void)
-{
-    const char *s = getenv("IVOCT_ASAN");
-    return s && *s && strcmp(s, "0") != 0;
-}
-
 static int setup(void **state)
 {
     (void)state;
@@ -450,7 +444,7 @@ static void test_truncated(void **state)
     free(p);
 
     /* a larger one: the section boundaries and a sample */
-    p = saved_scene("gumdrop", asan() ? 4 : 5, &n);
+    p = saved_scene("gumdrop", tu_sanitizer_build() ? 4 : 5, &n);
     layout_t L;
     layout_of(p, n, &L);
     size_t marks[] = {8,      OFF_DEPTH, OFF_REFINE, OFF_HAS_SLABS, OFF_BOX, OFF_NAME,
@@ -463,7 +457,7 @@ static void test_truncated(void **state)
                 fail_msg("a copy truncated to %zu of %zu bytes was accepted", len, n);
         }
     uint64_t rng = tu_seed(0x7e57f11eull);
-    int samples = asan() ? 60 : 400;
+    int samples = tu_sanitizer_build() ? 60 : 400;
     for (int i = 0; i < samples; i++) {
         size_t len = (size_t)(tu_uniform(&rng) * (double)n);
         if (try_load(p, len, NULL, 0) == 0)
@@ -502,10 +496,10 @@ static void test_corrupt(void **state)
     printf("small file: %zu single-bit corruptions rejected\n", n);
     free(p);
 
-    p = saved_scene("crosscap", asan() ? 4 : 5, &n);
+    p = saved_scene("crosscap", tu_sanitizer_build() ? 4 : 5, &n);
     unsigned char *q = malloc(n);
     assert_non_null(q);
-    int tries = asan() ? 300 : 2000;
+    int tries = tu_sanitizer_build() ? 300 : 2000;
     for (int k = 0; k < tries; k++) {
         memcpy(q, p, n);
         int bytes = 1 + (int)(tu_next(&rng) % 8);
@@ -700,7 +694,7 @@ static void test_resigned_random(void **state)
         layout_of(p, n, &L);
         unsigned char *q = malloc(n);
         assert_non_null(q);
-        int tries = asan() ? 300 : 2500, accepted = 0;
+        int tries = tu_sanitizer_build() ? 300 : 2500, accepted = 0;
         for (int k = 0; k < tries; k++) {
             memcpy(q, p, n);
             int bytes = 1 + (int)(tu_next(&rng) % 4);

@@ -230,7 +230,7 @@ static void test_slabs_at_max_depth(void **state)
     (void)state;
     const char *scenes[] = {"sphere", "gumdrop", "mcmullen-k3", "chubs", "drop", "tangle-cube",
                             "blobs", "clebsch-cubic"};
-    int depth = getenv("IVOCT_ASAN") ? 4 : 5;
+    int depth = tu_sanitizer_build() ? 4 : 5;
     for (size_t i = 0; i < sizeof scenes / sizeof *scenes; i++)
         run(scenes[i], depth, 0, 0);
 }
@@ -239,7 +239,7 @@ static void test_slabs_of_refined_leaves(void **state)
 {
     (void)state;
     const char *scenes[] = {"sphere", "gumdrop", "mcmullen-k3", "kusner-schmitt", "bretzel"};
-    int depth = getenv("IVOCT_ASAN") ? 6 : 7;
+    int depth = tu_sanitizer_build() ? 6 : 7;
     for (size_t i = 0; i < sizeof scenes / sizeof *scenes; i++) {
         /* the sphere's slabs are thin everywhere: early leaves must appear;
          * elsewhere a coarse max depth may leave none, which is not an error */

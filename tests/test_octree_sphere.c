@@ -56,12 +56,6 @@
 #define EPS 1e-9
 #define PI 3.14159265358979323846
 
-static int asan(void)
-{
-    const char *s = getenv("IVOCT_ASAN");
-    return s && *s && strcmp(s, "0") != 0;
-}
-
 /* smallest and largest square of a coordinate over [a, b] */
 static void axis_sq(double a, double b, double *lo, double *hi)
 {
@@ -191,7 +185,7 @@ static void test_sphere(void **state)
         assert_true(s.box[2 * a] == -1.05);
         assert_true(s.box[2 * a + 1] == 1.05);
     }
-    int max_depth = asan() ? 7 : 8;
+    int max_depth = tu_sanitizer_build() ? 7 : 8;
     for (int d = 4; d <= max_depth; d++) {
         check_depth(&s, d, OCT_TEST_INTERVAL);
         check_depth(&s, d, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ);

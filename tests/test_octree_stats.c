@@ -40,12 +40,6 @@
 #include "../scene/scene.h"
 #include "support/testutil.h"
 
-static int asan(void)
-{
-    const char *s = getenv("IVOCT_ASAN");
-    return s && *s && strcmp(s, "0") != 0;
-}
-
 static void load(const char *path, scene_t *s)
 {
     ivoct_error_t err;
@@ -208,7 +202,7 @@ static void test_every_scene(void **state)
     char **paths;
     int n = tu_scene_files(&paths);
     assert_true(n >= 19);
-    int depth = asan() ? 4 : 5;
+    int depth = tu_sanitizer_build() ? 4 : 5;
     for (int i = 0; i < n; i++) {
         scene_t s;
         load(paths[i], &s);

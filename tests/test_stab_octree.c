@@ -53,34 +53,8 @@
 #include "support/mpfi_tape.h"
 #include "support/testutil.h"
 
-static int asan(void)
-{
-    const char *a = getenv("IVOCT_ASAN");
-    return a && *a && strcmp(a, "0") != 0;
-}
-
 /* The grid depth of most cases: 5 (4 instrumented). */
-static int base_depth(void) { return asan() ? 4 : 5; }
-
-/* f written in u, v, w, with u v w defined as given (e.g. "x - 1e8"). */
-static tape_t *compile_uvw(const char *f, const char *u, const char *v, const char *w)
-{
-    ivoct_error_t err;
-    ivoct_error_clear(&err);
-    tape_compiler_t *tc = tape_compiler_new();
-    assert_non_null(tc);
-    tape_t *t = NULL;
-    if (tape_compiler_define(tc, "u", u, &err) || tape_compiler_define(tc, "v", v, &err) ||
-        tape_compiler_define(tc, "w", w, &err) || tape_compiler_compile(tc, f, &t, &err))
-        fail_msg("%s with u = %s: %s", f, u, err.msg);
-    tape_compiler_free(tc);
-    return t;
-}
-
-static tape_t *compile(const char *f)
-{
-    return compile_uvw(f, "x", "y", "z");
-}
+static int base_depth(void) { return tu_sanitizer_build() ? 4 : 5; }
 
 /* Enclosures against MPFI on random sub-boxes, and no NaN anywhere: an
  * enclosure is either empty (both bounds NaN: f undefined on the whole box,
@@ -180,7 +154,7 @@ static void test_translated(void **state)
                 snprintf(u, sizeof u, "x - %s", offs[k]);
                 snprintf(v, sizeof v, diag ? "y - %s" : "y", offs[k]);
                 snprintf(w, sizeof w, diag ? "z - %s" : "z", offs[k]);
-                tape_t *t = compile_uvw(surf ? GUMDROP : SPHERE, u, v, w);
+                tape_t *t = tu_compile_uvw(surf ? GUMDROP : SPHERE, u, v, w);
                 double cy = diag ? c : 0;
                 double box[6] = {c - r, c + r, cy - r, cy + r, cy - r, cy + r};
                 snprintf(name, sizeof name, "translated %s +%s%s", surf ? "gumdrop" : "sphere",
@@ -206,7 +180,7 @@ static void test_scaled(void **state)
             snprintf(u, sizeof u, "x*%s", inverse[k]);
             snprintf(v, sizeof v, "y*%s", inverse[k]);
             snprintf(w, sizeof w, "z*%s", inverse[k]);
-            tape_t *t = compile_uvw(surf ? GUMDROP : SPHERE, u, v, w);
+            tape_t *t = tu_compile_uvw(surf ? GUMDROP : SPHERE, u, v, w);
             double box[6] = {-r, r, -r, r, -r, r};
             snprintf(name, sizeof name, "scaled %s x%s", surf ? "gumdrop" : "sphere", scales[k]);
             check_case(t, box, name, base_depth(),
@@ -265,7 +239,7 @@ static void test_thin_shells(void **state)
         char f[96], name[64];
         snprintf(f, sizeof f, "abs(sqrt(x^2 + y^2 + z^2) - 1) - %s", hs[k]);
         snprintf(name, sizeof name, "thin shell h=%s", hs[k]);
-        tape_t *t = compile(f);
+        tape_t *t = tu_compile(f);
         cov_summary_t s;
         /* the grid checks (sign changes only where the grid straddles the shell,
          * i.e. h = 1e-3; empty cells everywhere) */
@@ -332,23 +306,13 @@ static void test_thin_shells(void **state)
 
 /* ---- high degree and singular surfaces --------------------------------------------- */
 
-static void load_scene(const char *name, scene_t *s)
-{
-    char path[4096];
-    snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), name);
-    ivoct_error_t err;
-    ivoct_error_clear(&err);
-    if (scene_load(path, s, &err))
-        fail_msg("%s: %s", path, err.msg);
-}
-
 static void test_high_degree(void **state)
 {
     (void)state;
     static const char *const names[] = {"barth-sextic", "tangle-cube", "clebsch-cubic"};
     for (size_t k = 0; k < 3; k++) {
         scene_t s;
-        load_scene(names[k], &s);
+        tu_load_scene(names[k], &s);
         /* one level deeper than test_octree_coverage, the whole chain (with and
          * without early leaves) */
         check_case(s.tape, s.box, names[k], base_depth() + 1, COV_CFG_REFINE | COV_NO_EMPTY, NULL,
@@ -369,7 +333,7 @@ static void check_singular(const char *scene, const cov_line_t *lines, int n_lin
 {
     double t0 = tu_now();
     scene_t s;
-    load_scene(scene, &s);
+    tu_load_scene(scene, &s);
     int depth = base_depth();
     cov_summary_t sum;
     cov_check_all(s.tape, s.box, scene, depth, COV_CFG_LIPSCHITZ | COV_CFG_REFINE | COV_NO_EMPTY,
@@ -498,7 +462,7 @@ static void test_undefined(void **state)
     };
     for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
         double t0 = tu_now();
-        tape_t *t = compile(cases[i].f);
+        tape_t *t = tu_compile(cases[i].f);
         cov_summary_t s;
         cov_check_all(t, cases[i].box, cases[i].f, base_depth(), COV_CFG_ALL, NULL, 0, &s);
         if (cases[i].has_surface)
@@ -531,10 +495,10 @@ static void test_deep(void **state)
     const double c[3] = {0.3, 0.2, 0.1}, rad = 2.5e-4;
     const double box[6] = {-1, 1, -1, 1, -1, 1};
     const int depth = 16;
-    tape_t *t = compile_uvw("u^2 + v^2 + w^2 - 6.25e-8", "x - 0.3", "y - 0.2", "z - 0.1");
+    tape_t *t = tu_compile_uvw("u^2 + v^2 + w^2 - 6.25e-8", "x - 0.3", "y - 0.2", "z - 0.1");
     double w = (box[1] - box[0]) / (double)(1u << depth);
     uint32_t i0[3], n = (uint32_t)ceil(2.6 * rad / w) + 2;
-    if (asan())
+    if (tu_sanitizer_build())
         n = n / 2 + 1; /* a window on part of the sphere */
     for (int a = 0; a < 3; a++)
         i0[a] = (uint32_t)floor((c[a] - 1.3 * rad - box[2 * a]) / w);
@@ -581,7 +545,7 @@ static void test_deep(void **state)
     /* A box of 1e-4 cutting the unit sphere at depth 16 would need ~2^32 leaves:
      * the memory budget must stop it with an error, not a crash. */
     t0 = tu_now();
-    t = compile("x^2 + y^2 + z^2 - 1");
+    t = tu_compile("x^2 + y^2 + z^2 - 1");
     const double small[6] = {1 - 5e-5, 1 + 5e-5, -5e-5, 5e-5, -5e-5, 5e-5};
     oct_params_t p = {.depth = 16, .tests = OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ, .threads = 2,
                       .max_memory = (size_t)32 << 20};

@@ -1,5 +1,5 @@
 /* Numerical stability stress suite, ray half (issue 7, item 5): ray hits against
- * the MPFR oracle (tests/support/ray_oracle.c) on the stress cases of
+ * the MPFR oracle (tests/support/ray_reference.c) on the stress cases of
  * tests/test_stab_octree.c, for mitchell, newton and lipschitz, with the box
  * source (--no-octree) and the octree source.
  *
@@ -12,7 +12,7 @@
  *  - no missed hit: a miss is certified, so wherever the oracle finds a root
  *    (not within ~1e-9 of the box faces, near_box), the renderer hits;
  *  - never after the first root: t <= r + tol;
- *  - on rays that are not ambiguous (ray_oracle.h: no near-double root, not
+ *  - on rays that are not ambiguous (ray_reference.h: no near-double root, not
  *    near the box), no false hit, and |t - r| <= tol with
  *        tol = 1e-12 |r| + 4 (w(F(p~)) + sum_i |dF/dx_i(p~)| rho_i) / |d . grad f(p~)|
  *    at p~ = ray_point(o, d, r): the renderer places a hit where the sign of
@@ -58,33 +58,11 @@
 #include "../octree/octree.h"
 #include "../ray/ray.h"
 #include "../scene/scene.h"
-#include "support/ray_oracle.h"
+#include "support/ray_reference.h"
 #include "support/testutil.h"
 
 static const ray_method_t METHODS[] = {RAY_MITCHELL, RAY_NEWTON, RAY_LIPSCHITZ};
 #define NMETHODS (sizeof METHODS / sizeof METHODS[0])
-
-static int asan(void)
-{
-    const char *a = getenv("IVOCT_ASAN");
-    return a && *a && strcmp(a, "0") != 0;
-}
-
-static tape_t *compile_uvw(const char *f, const char *u, const char *v, const char *w)
-{
-    ivoct_error_t err;
-    ivoct_error_clear(&err);
-    tape_compiler_t *tc = tape_compiler_new();
-    assert_non_null(tc);
-    tape_t *t = NULL;
-    if (tape_compiler_define(tc, "u", u, &err) || tape_compiler_define(tc, "v", v, &err) ||
-        tape_compiler_define(tc, "w", w, &err) || tape_compiler_compile(tc, f, &t, &err))
-        fail_msg("%s with u = %s: %s", f, u, err.msg);
-    tape_compiler_free(tc);
-    return t;
-}
-
-static tape_t *compile(const char *f) { return compile_uvw(f, "x", "y", "z"); }
 
 static oct_tree_t *build(const tape_t *t, const double box[6], int depth)
 {
@@ -146,13 +124,15 @@ typedef struct truth {
     double gmin, t_gmin;
 } truth_t;
 
-static void truth_of(ro_ctx_t *c, int both, const double o[3], const double d[3], double t0,
+static void truth_of(rref_t *c, int both, const double o[3], const double d[3], double t0,
                      double t1, truth_t *tr)
 {
-    ro_answer_t a[2];
+    rref_result_t a[2];
     int n = both ? 2 : 1;
-    for (int k = 0; k < n; k++)
-        ro_ray(c, k ? RO_CONST_HI : RO_CONST_LO, o, d, t0, t1, &a[k]);
+    for (int k = 0; k < n; k++) {
+        rref_set_end(c, k ? RREF_CONST_HI : RREF_CONST_LO);
+        rref_ray(c, o, d, t0, t1, &a[k]);
+    }
     memset(tr, 0, sizeof *tr);
     tr->r_first = INFINITY, tr->r_last = -INFINITY, tr->gmin = INFINITY;
     for (int k = 0; k < n; k++) {
@@ -229,25 +209,24 @@ typedef struct ray_case {
     double box[6];
     double eye[3], target[3];
     int depth;            /* of the octree source */
-    double length;        /* the scene's length scale (ray_oracle.h), 0: 1 */
+    double length;        /* the scene's length scale (ray_reference.h), 0: 1 */
 } ray_case_t;
 
 static void check_camera(const ray_case_t *rc)
 {
     double t_start = tu_now();
-    const int size = asan() ? 10 : 24;
+    const int size = tu_sanitizer_build() ? 10 : 24;
     const size_t npix = (size_t)size * size;
     ivoct_error_t err;
     ivoct_error_clear(&err);
     const double up[3] = {0, 0, 1};
     ray_camera_t cam;
     assert_int_equal(ray_camera_init(&cam, rc->eye, rc->target, up, 30, size, size, &err), 0);
-    assert_true(ro_tape_is_polynomial(rc->oracle, 0));
-    int both = !ro_tape_is_polynomial(rc->oracle, 1);
-    ro_ctx_t c;
-    ro_init(&c, rc->oracle);
+    int both = !rref_supported(rc->oracle); /* interval constants: ask at both ends */
+    rref_t *c = rref_new(rc->oracle);
+    assert_non_null(c);
     if (rc->length > 0)
-        c.length = rc->length;
+        rref_set_length(c, rc->length);
     tape_ws_t *ws = tape_ws_new(rc->tape->n);
     truth_t *tr = calloc(npix, sizeof *tr);
     double *band = calloc(npix, sizeof *band);
@@ -259,7 +238,7 @@ static void check_camera(const ray_case_t *rc)
         if (!ray_clip_box(rc->box, cam.eye, d, &t0, &t1))
             continue;
         inbox[i] = 1;
-        truth_of(&c, both, cam.eye, d, t0, t1, &tr[i]);
+        truth_of(c, both, cam.eye, d, t0, t1, &tr[i]);
         ty.rays++;
         ty.oracle_hits += tr[i].hit;
         ty.ambiguous += tr[i].ambiguous;
@@ -319,7 +298,7 @@ static void check_camera(const ray_case_t *rc)
     free(band);
     free(inbox);
     tape_ws_free(ws);
-    ro_clear(&c);
+    rref_free(c);
 }
 
 static const char *const SPHERE = "u^2 + v^2 + w^2 - 1";
@@ -348,7 +327,7 @@ static void test_translated(void **state)
                 snprintf(u, sizeof u, "x - %s", offs[k]);
                 snprintf(v, sizeof v, diag ? "y - %s" : "y", offs[k]);
                 snprintf(w, sizeof w, diag ? "z - %s" : "z", offs[k]);
-                tape_t *t = compile_uvw(surf ? GUMDROP : SPHERE, u, v, w);
+                tape_t *t = tu_compile_uvw(surf ? GUMDROP : SPHERE, u, v, w);
                 snprintf(name, sizeof name, "translated %s +%s%s", surf ? "gumdrop" : "sphere",
                          offs[k], diag ? "(1,1,1)" : "x");
                 ray_case_t rc = {.name = name, .tape = t, .oracle = t, .depth = 6};
@@ -371,7 +350,7 @@ static void test_scaled(void **state)
             snprintf(u, sizeof u, "x*%s", inverse[k]);
             snprintf(v, sizeof v, "y*%s", inverse[k]);
             snprintf(w, sizeof w, "z*%s", inverse[k]);
-            tape_t *t = compile_uvw(surf ? GUMDROP : SPHERE, u, v, w);
+            tape_t *t = tu_compile_uvw(surf ? GUMDROP : SPHERE, u, v, w);
             snprintf(name, sizeof name, "scaled %s x%s", surf ? "gumdrop" : "sphere", scales[k]);
             ray_case_t rc = {.name = name, .tape = t, .oracle = t, .depth = 6, .length = s};
             const double c[3] = {0, 0, 0};
@@ -391,7 +370,7 @@ static void test_thin_shells(void **state)
         /* from outside, the first root is on the outer face, radius 1 + h */
         snprintf(g, sizeof g, "x^2 + y^2 + z^2 - (1 + %s)^2", hs[k]);
         snprintf(name, sizeof name, "thin shell h=%s", hs[k]);
-        tape_t *t = compile(f), *o = compile(g);
+        tape_t *t = tu_compile(f), *o = tu_compile(g);
         ray_case_t rc = {.name = name, .tape = t, .oracle = o, .depth = 7};
         const double c[3] = {0, 0, 0};
         centred_case(&rc, c, 1.1);
@@ -403,13 +382,8 @@ static void test_thin_shells(void **state)
 
 static void scene_case(const char *scene)
 {
-    char path[4096];
-    snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), scene);
     scene_t s;
-    ivoct_error_t err;
-    ivoct_error_clear(&err);
-    if (scene_load(path, &s, &err))
-        fail_msg("%s: %s", path, err.msg);
+    tu_load_scene(scene, &s);
     ray_case_t rc = {.name = scene, .tape = s.tape, .oracle = s.tape, .depth = 7};
     memcpy(rc.box, s.box, sizeof rc.box);
     memcpy(rc.eye, s.eye, sizeof rc.eye);
@@ -438,7 +412,7 @@ static void test_undefined(void **state)
         {"1/(x^2 + y^2 + z^2 - 0.25)^2 - 16", "1 - 16*(x^2 + y^2 + z^2 - 0.25)^2"},
     };
     for (size_t k = 0; k < sizeof cases / sizeof *cases; k++) {
-        tape_t *t = compile(cases[k].f), *o = compile(cases[k].poly);
+        tape_t *t = tu_compile(cases[k].f), *o = tu_compile(cases[k].poly);
         char name[128];
         snprintf(name, sizeof name, "undefined: %s", cases[k].f);
         ray_case_t rc = {.name = name, .tape = t, .oracle = o, .depth = 6};
@@ -451,7 +425,7 @@ static void test_undefined(void **state)
 
     /* f defined nowhere: every ray misses, with every method and source */
     double t_start = tu_now();
-    tape_t *t = compile("sqrt(-1 - x^2) + y");
+    tape_t *t = tu_compile("sqrt(-1 - x^2) + y");
     const double box[6] = {-1, 1, -1, 1, -1, 1};
     oct_tree_t *tree = build(t, box, 6);
     assert_int_equal(tree->n_leaves, 0);
@@ -491,7 +465,7 @@ static void test_deep(void **state)
     (void)state;
     /* depth 16 around a sphere of radius 2.5e-4 in [-1,1]^3: the octree source
      * walks 16 levels; the box source sees the whole box */
-    tape_t *t = compile_uvw("u^2 + v^2 + w^2 - 6.25e-8", "x - 0.3", "y - 0.2", "z - 0.1");
+    tape_t *t = tu_compile_uvw("u^2 + v^2 + w^2 - 6.25e-8", "x - 0.3", "y - 0.2", "z - 0.1");
     ray_case_t rc = {.name = "deep: sphere r=2.5e-4 depth 16", .tape = t, .oracle = t,
                      .depth = 16, .length = 2.5e-4};
     const double c[3] = {0.3, 0.2, 0.1};
@@ -542,14 +516,14 @@ static ray_hit_kind_t trace(const tape_t *tape, tape_ws_t *ws, const oct_tree_t 
 static void test_grazing(void **state)
 {
     (void)state;
-    tape_t *t = compile("x^2 + y^2 + z^2 - 1");
+    tape_t *t = tu_compile("x^2 + y^2 + z^2 - 1");
     const double box[6] = {-1.05, 1.05, -1.05, 1.05, -1.05, 1.05};
     oct_tree_t *tree = build(t, box, 8);
     tape_ws_t *ws = tape_ws_new(t->n);
-    ro_ctx_t c;
-    ro_init(&c, t);
+    rref_t *c = rref_new(t);
+    assert_non_null(c);
     uint64_t rng = tu_seed(0x9a2e);
-    const int nrand = asan() ? 4 : 16;
+    const int nrand = tu_sanitizer_build() ? 4 : 16;
     long failures = 0;
     printf("%-8s %-7s %6s %7s %7s %7s %9s %12s\n", "delta", "side", "rays", "hits", "missed",
            "false", "allowed", "max |t-r|");
@@ -589,7 +563,7 @@ static void test_grazing(void **state)
                 double t0, t1;
                 assert_true(ray_clip_box(box, o, d, &t0, &t1));
                 truth_t tr;
-                truth_of(&c, 0, o, d, t0, t1, &tr);
+                truth_of(c, 0, o, d, t0, t1, &tr);
                 /* the construction: inside hits, outside misses, for delta >> rounding */
                 if (k == 0 || e <= 13)
                     assert_int_equal(tr.hit, !side);
@@ -642,7 +616,7 @@ static void test_grazing(void **state)
             tu_result_row("rays", name, outcome, tu_now() - t_start, ty.max_err);
         }
     }
-    ro_clear(&c);
+    rref_free(c);
     tape_ws_free(ws);
     oct_free(tree);
     tape_free(t);

@@ -107,8 +107,9 @@ static void poly_deriv(poly_t *r, const poly_t *p)
     poly_trim(r);
 }
 
-/* Is the tape a polynomial we can expand (ops, constants, degree)? */
-int rref_supported(const tape_t *t)
+/* Is the tape a polynomial we can expand (ops, degree; with exact_consts,
+ * constants that are doubles)? */
+static int is_polynomial(const tape_t *t, int exact_consts)
 {
     int *deg = calloc(t->n ? t->n : 1, sizeof *deg);
     if (!deg)
@@ -117,7 +118,7 @@ int rref_supported(const tape_t *t)
     for (uint32_t i = 0; i < t->n && ok; i++) {
         const tape_clause_t *c = &t->clauses[i];
         switch ((tape_op_t)c->op) {
-        case TAPE_CONST: ok = c->c.lo == c->c.hi; deg[i] = 0; break;
+        case TAPE_CONST: ok = !exact_consts || c->c.lo == c->c.hi; deg[i] = 0; break;
         case TAPE_X: case TAPE_Y: case TAPE_Z: deg[i] = 1; break;
         case TAPE_NEG: deg[i] = deg[c->a]; break;
         case TAPE_SQR: deg[i] = 2 * deg[c->a]; break;
@@ -135,16 +136,20 @@ int rref_supported(const tape_t *t)
     return ok;
 }
 
+int rref_supported(const tape_t *t) { return is_polynomial(t, 1); }
+
+int rref_supported_at_ends(const tape_t *t) { return is_polynomial(t, 0); }
+
 /* g(t) = f(o + t d) into out, with slots (t->n of them) as scratch. */
-static void tape_poly(const tape_t *t, poly_t *slot, const double o[3], const double d[3],
-                      poly_t *out, mpfr_t tmp)
+static void tape_poly(const tape_t *t, rref_end_t end, poly_t *slot, const double o[3],
+                      const double d[3], poly_t *out, mpfr_t tmp)
 {
     for (uint32_t i = 0; i < t->n; i++) {
         const tape_clause_t *c = &t->clauses[i];
         poly_t *r = &slot[i];
         switch ((tape_op_t)c->op) {
         case TAPE_CONST:
-            mpfr_set_d(r->c[0], c->c.lo, MPFR_RNDN);
+            mpfr_set_d(r->c[0], end == RREF_CONST_HI ? c->c.hi : c->c.lo, MPFR_RNDN);
             r->deg = 0;
             poly_trim(r);
             break;
@@ -295,6 +300,8 @@ static void real_roots(const poly_t *p, const mpfr_t a, const mpfr_t b, roots_t 
 
 struct rref {
     const tape_t *tape;
+    rref_end_t end;
+    double length;
     poly_t *slot;
     poly_t p, dp, ddp;
     mpfr_t tmp, a, b, x, y;
@@ -303,7 +310,7 @@ struct rref {
 
 rref_t *rref_new(const tape_t *t)
 {
-    if (!t || t->n == 0 || !rref_supported(t))
+    if (!t || t->n == 0 || !rref_supported_at_ends(t))
         return NULL;
     rref_t *c = calloc(1, sizeof *c);
     if (!c)
@@ -314,6 +321,8 @@ rref_t *rref_new(const tape_t *t)
         return NULL;
     }
     c->tape = t;
+    c->end = RREF_CONST_LO;
+    c->length = 1;
     for (uint32_t i = 0; i < t->n; i++)
         poly_init(&c->slot[i]);
     poly_init(&c->p);
@@ -343,10 +352,14 @@ void rref_free(rref_t *c)
     free(c);
 }
 
+void rref_set_end(rref_t *c, rref_end_t end) { c->end = end; }
+
+void rref_set_length(rref_t *c, double length) { c->length = length; }
+
 void rref_ray(rref_t *c, const double o[3], const double d[3], double t0, double t1,
               rref_result_t *out)
 {
-    tape_poly(c->tape, c->slot, o, d, &c->p, c->tmp);
+    tape_poly(c->tape, c->end, c->slot, o, d, &c->p, c->tmp);
     mpfr_set_d(c->a, t0, MPFR_RNDN);
     mpfr_set_d(c->b, t1, MPFR_RNDN);
     real_roots(&c->p, c->a, c->b, &c->R, &c->C);
@@ -359,7 +372,7 @@ void rref_ray(rref_t *c, const double o[3], const double d[3], double t0, double
         poly_eval(c->y, &c->dp, k == -2 ? c->a : k == -1 ? c->b : c->C2.r[k]);
         L = fmax(L, fabs(mpfr_get_d(c->y, MPFR_RNDN)));
     }
-    double thr = 1e-9 * L;
+    double thr = 1e-9 * L * c->length;
     out->hit = c->R.n > 0;
     out->r = out->hit ? mpfr_get_d(c->R.r[0], MPFR_RNDN) : NAN;
     out->dp_r = NAN;
@@ -367,24 +380,31 @@ void rref_ray(rref_t *c, const double o[3], const double d[3], double t0, double
         poly_eval(c->y, &c->dp, c->R.r[0]);
         out->dp_r = fabs(mpfr_get_d(c->y, MPFR_RNDN));
     }
-    out->ambiguous = 0;
-    double gmin = INFINITY;
+    out->near_double = out->near_box = 0;
+    out->gmin = INFINITY;
+    out->t_gmin = NAN;
+    double gmin = INFINITY; /* over the points the ambiguity test looks at */
     for (int e = 0; e < 2; e++) {
         poly_eval(c->y, &c->p, e ? c->b : c->a);
         double g = fabs(mpfr_get_d(c->y, MPFR_RNDN));
+        if (g < out->gmin)
+            out->gmin = g, out->t_gmin = e ? t1 : t0;
         gmin = fmin(gmin, g);
         if (g <= thr)
-            out->ambiguous = 1;
+            out->near_box = 1;
     }
     for (int k = 0; k < c->C.n; k++) {
-        if (c->R.n >= 2 && mpfr_greater_p(c->C.r[k], c->R.r[1]))
-            break;
         poly_eval(c->y, &c->p, c->C.r[k]);
         double g = fabs(mpfr_get_d(c->y, MPFR_RNDN));
+        if (g < out->gmin)
+            out->gmin = g, out->t_gmin = mpfr_get_d(c->C.r[k], MPFR_RNDN);
+        if (c->R.n >= 2 && mpfr_greater_p(c->C.r[k], c->R.r[1]))
+            continue; /* past the second root: the first one is isolated */
         gmin = fmin(gmin, g);
         if (g <= thr)
-            out->ambiguous = 1;
+            out->near_double = 1;
     }
+    out->ambiguous = out->near_double || out->near_box;
     out->graze = L > 0 ? gmin / L : NAN;
 }
 
@@ -393,7 +413,7 @@ int rref_ray_box(rref_t *c, const double box[6], const double o[3], const double
 {
     double t0, t1;
     if (!ray_clip_box(box, o, d, &t0, &t1)) {
-        *out = (rref_result_t){0, NAN, NAN, 0, INFINITY};
+        *out = (rref_result_t){0, NAN, NAN, 0, 0, 0, INFINITY, INFINITY, NAN};
         return 0;
     }
     rref_ray(c, o, d, t0, t1, out);

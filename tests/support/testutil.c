@@ -2,15 +2,26 @@
 #include "testutil.h"
 
 #include <glob.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
+#include <cmocka.h>
+
 uint64_t tu_seed(uint64_t fallback)
 {
     const char *s = getenv("IVOCT_SEED");
     return s && *s ? strtoull(s, NULL, 0) : fallback;
+}
+
+int tu_sanitizer_build(void)
+{
+    const char *s = getenv("IVOCT_ASAN");
+    return s && *s && strcmp(s, "0") != 0;
 }
 
 double tu_scale(void)
@@ -23,8 +34,7 @@ double tu_scale(void)
     /* The sanitizer build looks for memory and undefined-behaviour errors,
      * which a tenth of the random cases exercise as well; the release build
      * runs the full counts. */
-    const char *asan = getenv("IVOCT_ASAN");
-    return asan && *asan && strcmp(asan, "0") ? 0.1 : 1.0;
+    return tu_sanitizer_build() ? 0.1 : 1.0;
 }
 
 const char *tu_source_dir(void)
@@ -83,3 +93,29 @@ void tu_result_row(const char *suite, const char *name, const char *outcome, dou
     fprintf(f, "%.3f,%.3g\n", time_s, error);
     fclose(f);
 }
+
+void tu_load_scene(const char *name, scene_t *s)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), name);
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    if (scene_load(path, s, &err))
+        fail_msg("%s: %s", path, err.msg);
+}
+
+tape_t *tu_compile_uvw(const char *f, const char *u, const char *v, const char *w)
+{
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    tape_compiler_t *tc = tape_compiler_new();
+    assert_non_null(tc);
+    tape_t *t = NULL;
+    if (tape_compiler_define(tc, "u", u, &err) || tape_compiler_define(tc, "v", v, &err) ||
+        tape_compiler_define(tc, "w", w, &err) || tape_compiler_compile(tc, f, &t, &err))
+        fail_msg("%s with u = %s, v = %s, w = %s: %s", f, u, v, w, err.msg);
+    tape_compiler_free(tc);
+    return t;
+}
+
+tape_t *tu_compile(const char *f) { return tu_compile_uvw(f, "x", "y", "z"); }

@@ -11,7 +11,7 @@
 #   - with refine EPS for EPS = 1e-2 ... 1e-4 (chain interval, ilie; depth where a
 #     leaf's diagonal is <= EPS).  1e-5 is left out of the default list: it costs
 #     60-230 s per quartic on 2 cores (horned cube 233 s, gumdrop 132 s) for ~10x
-#     the leaves of 1e-4, more than the rest of the sweep together; add it with --eps,
+#     the leaves of 1e-4, more than the rest of the sweep together (--eps adds it),
 # and reports time, leaves, certified max error, and the share of leaves without
 # surface (proven empty / proven surface / undecided, on 256 leaves per build).
 # --quick: sphere and gumdrop, depths 5-7, EPS 1e-2 and 1e-3, 64 leaves.

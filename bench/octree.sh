@@ -8,8 +8,8 @@
 #   ivoct build SCENE --depth D --tests {interval | interval,lipschitz} --threads {1 | 2}
 #       -> time_s, cells_visited, leaves, cells/s, bytes/leaf, peak bytes (from --stats)
 #   ivoct build SCENE --depth D --tests interval,ilie --refine EPS_D --threads 2
-#       EPS_D = the diagonal of a depth-D cell, the certified error of the uniform
-#       depth-D octree (and the resolution of sampling at depth D): the refined
+#       EPS_D = the certified max error of the uniform depth-D builds (their
+#       leaf diagonal, also the resolution of sampling at depth D): the refined
 #       octree at equal certified error -> time_s, leaves, max_error_bound
 #   ivoct_dense SCENE --depth D --threads 2 --octree (the interval,lipschitz 2-thread tree)
 #       -> time of point sampling at the (2^D+1)^3 grid corners, cells with a sign
@@ -61,7 +61,7 @@ md=$results/octree-$stamp.md
 work=$(mktemp -d /tmp/ivoct-bench.XXXXXX)
 trap 'rm -rf "$work"' EXIT
 
-echo "surface,depth,tests,threads,time_s,cells_visited,leaves,cells_per_s,bytes_per_leaf,peak_bytes,status" >"$ocsv"
+echo "surface,depth,tests,threads,time_s,cells_visited,leaves,cells_per_s,bytes_per_leaf,peak_bytes,max_error_bound,status" >"$ocsv"
 echo "surface,depth,threads,points,dense_time_s,dense_cells,octree_cells,octree_only,octree_only_surface,dense_only,octree_interval_time_s,octree_lipschitz_time_s,octree_refine_time_s,speedup_interval,speedup_lipschitz,speedup_refine,refine_eps,refine_leaves,refine_max_error,status" >"$dcsv"
 
 load() { cut -d' ' -f1-3 /proc/loadavg; }
@@ -82,62 +82,55 @@ predicted_ok() {
 
 json() { "$PY" -c "import json,sys; d=json.load(open(sys.argv[1])); print(${2})" "$1"; }
 
-# cell_diagonal SCENE D: the diagonal of a depth-D cell of the scene's box
-cell_diagonal() {
-    "$PY" - "$1" "$2" <<'PYEOF'
-import math, sys
-for line in open(sys.argv[1]):
-    key, _, value = line.split(";")[0].partition("=")
-    if key.strip() == "box":
-        b = [float(v) for v in value.split()]
-        w = [(b[2 * i + 1] - b[2 * i]) / 2 ** int(sys.argv[2]) for i in range(3)]
-        print(repr(math.sqrt(sum(x * x for x in w))))
-PYEOF
+# the CSV fields of one build from its --stats file (the octree CSV's columns)
+stats_row() {
+    json "$1" "','.join(repr(x) for x in [d['time_s'], d['cells_visited'], d['leaves'], d['cells_visited'] / max(d['time_s'], 1e-9), d['bytes_per_leaf'], d['peak_bytes'], d['max_error_bound']])"
 }
 
 for d in $depths; do
     for s in $surfaces; do
         scene=$root/scenes/$s.ini
         declare -A t2=()
+        eps=
         for tests in interval interval,lipschitz; do
             for th in 1 2; do
                 key=$s/$tests/$th
                 if [ "$tests" = interval,lipschitz ] && [ $th = 1 ] && [ "$d" -gt 8 ]; then
-                    echo "$s,$d,\"$tests\",$th,,,,,,,not run (1 thread only to depth 8)" >>"$ocsv"
+                    echo "$s,$d,\"$tests\",$th,,,,,,,,not run (1 thread only to depth 8)" >>"$ocsv"
                     continue
                 fi
                 if [ "${prev[$key]:-}" = skipped ] || ! predicted_ok "$key" 5; then
                     prev[$key]=skipped
-                    echo "$s,$d,\"$tests\",$th,,,,,,,skipped (predicted > ${cap}s)" >>"$ocsv"
+                    echo "$s,$d,\"$tests\",$th,,,,,,,,skipped (predicted > ${cap}s)" >>"$ocsv"
                     continue
                 fi
                 save=()
                 [ "$tests" = interval,lipschitz ] && [ $th = 2 ] && save=(--save "$work/tree.ivo")
                 "$IVOCT" build "$scene" --depth "$d" --tests "$tests" --threads "$th" --quiet \
                     --stats "$work/st.json" "${save[@]}"
-                row=$(json "$work/st.json" "','.join(str(x) for x in [d['time_s'], d['cells_visited'], d['leaves'], d['cells_visited'] / max(d['time_s'], 1e-9), d['bytes_per_leaf'], d['peak_bytes']])")
+                row=$(stats_row "$work/st.json")
                 echo "$s,$d,\"$tests\",$th,$row,ok" >>"$ocsv"
                 time_s=${row%%,*}
+                eps=${row##*,} # the uniform octree's certified error: its leaf diagonal
                 prev[$key]=$time_s
                 [ $th = 2 ] && t2[$tests]=$time_s
                 printf '  %-15s depth %2d  %-18s %d thread(s): %8.3f s\n' "$s" "$d" "$tests" "$th" "$time_s"
             done
         done
-        # the refined octree at the certified error of the uniform one
-        eps=$(cell_diagonal "$scene" "$d")
-        rrow=,,
-        if [ "${prev[$s/refine]:-}" != skipped ] && predicted_ok "$s/refine" 5; then
+        # the refined octree at the certified error of the uniform ones (all
+        # uniform builds of a depth share it; none ran: no comparison)
+        tr= rleaves= rerr=
+        if [ -n "$eps" ] && [ "${prev[$s/refine]:-}" != skipped ] && predicted_ok "$s/refine" 5; then
             "$IVOCT" build "$scene" --depth "$d" --tests interval,ilie --refine "$eps" --threads 2 \
                 --quiet --stats "$work/st.json"
-            rrow=$(json "$work/st.json" "','.join(str(x) for x in [d['time_s'], d['leaves'], d['max_error_bound']])")
-            row=$(json "$work/st.json" "','.join(str(x) for x in [d['time_s'], d['cells_visited'], d['leaves'], d['cells_visited'] / max(d['time_s'], 1e-9), d['bytes_per_leaf'], d['peak_bytes']])")
+            row=$(stats_row "$work/st.json")
             echo "$s,$d,\"interval,ilie refine $eps\",2,$row,ok" >>"$ocsv"
-            prev[$s/refine]=${rrow%%,*}
-            printf '  %-15s depth %2d  interval,ilie --refine %.3g, 2 threads: %8.3f s\n' "$s" "$d" "$eps" "${rrow%%,*}"
+            IFS=, read -r tr _ rleaves _ _ _ rerr <<<"$row"
+            prev[$s/refine]=$tr
+            printf '  %-15s depth %2d  interval,ilie --refine %.3g, 2 threads: %8.3f s\n' "$s" "$d" "$eps" "$tr"
         else
             prev[$s/refine]=skipped
         fi
-        tr=${rrow%%,*}
         # the dense baseline, right after the octrees of the same surface and depth
         # compared with the interval,lipschitz tree when it was built at this depth
         cmp_args=()
@@ -153,7 +146,7 @@ import sys
 dt = float(sys.argv[1])
 r = [('%.3f' % (dt / float(t)) if t else '') for t in sys.argv[2:]]
 print(','.join(r))" "$dt" "$ti" "$tl" "$tr")
-        echo "$s,$d,2,$row,$ti,$tl,$tr,$ratios,$eps,${rrow#*,},ok" >>"$dcsv"
+        echo "$s,$d,2,$row,$ti,$tl,$tr,$ratios,$eps,$rleaves,$rerr,ok" >>"$dcsv"
         printf '  %-15s depth %2d  dense sampling     2 threads: %8.3f s  (octree/dense speed-up: %s)\n' "$s" "$d" "$dt" "$ratios"
     done
 done

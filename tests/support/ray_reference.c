@@ -383,13 +383,13 @@ void rref_ray(rref_t *c, const double o[3], const double d[3], double t0, double
     out->near_double = out->near_box = 0;
     out->gmin = INFINITY;
     out->t_gmin = NAN;
-    double gmin = INFINITY; /* over the points the ambiguity test looks at */
+    double g_checked = INFINITY; /* min |g| over the points the ambiguity test looks at */
     for (int e = 0; e < 2; e++) {
         poly_eval(c->y, &c->p, e ? c->b : c->a);
         double g = fabs(mpfr_get_d(c->y, MPFR_RNDN));
         if (g < out->gmin)
             out->gmin = g, out->t_gmin = e ? t1 : t0;
-        gmin = fmin(gmin, g);
+        g_checked = fmin(g_checked, g);
         if (g <= thr)
             out->near_box = 1;
     }
@@ -400,12 +400,12 @@ void rref_ray(rref_t *c, const double o[3], const double d[3], double t0, double
             out->gmin = g, out->t_gmin = mpfr_get_d(c->C.r[k], MPFR_RNDN);
         if (c->R.n >= 2 && mpfr_greater_p(c->C.r[k], c->R.r[1]))
             continue; /* past the second root: the first one is isolated */
-        gmin = fmin(gmin, g);
+        g_checked = fmin(g_checked, g);
         if (g <= thr)
             out->near_double = 1;
     }
     out->ambiguous = out->near_double || out->near_box;
-    out->graze = L > 0 ? gmin / L : NAN;
+    out->graze = L > 0 ? g_checked / L : NAN;
 }
 
 int rref_ray_box(rref_t *c, const double box[6], const double o[3], const double d[3],

@@ -54,11 +54,6 @@ void tape_ws_free(tape_ws_t *ws)
     free(ws);
 }
 
-iv_t tape_ws_slot(const tape_ws_t *ws, uint32_t i, unsigned lane)
-{
-    return ws->iv[(size_t)i * L + lane];
-}
-
 /* ---- point ------------------------------------------------------------------ */
 
 /* x^n by squaring, lanes innermost: much cheaper than pow() for the small
@@ -186,8 +181,43 @@ static void fill_chunk(iv_box_t *chunk, const iv_box_t *box, size_t m)
         chunk[k] = box[k < m ? k : 0];
 }
 
-void tape_eval_interval(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *box,
-                        iv_t *out)
+/* The choices of the m boxes of the chunk just evaluated into S (see
+ * tape_eval_interval_choices); comparisons with an empty (NaN) operand are
+ * false, so nothing is decided there. */
+static void chunk_choices(const tape_t *t, const iv_t *S, size_t m, uint8_t *choices)
+{
+    memset(choices, TAPE_CHOICE_BOTH, m * t->n);
+    for (uint32_t i = 0; i < t->n; i++) {
+        const tape_clause_t *c = &t->clauses[i];
+        const iv_t *a = S + (size_t)c->a * L, *b = S + (size_t)c->b * L;
+        uint8_t *out = choices + i;
+        switch ((tape_op_t)c->op) {
+        case TAPE_MIN:
+            for (size_t k = 0; k < m; k++)
+                out[k * t->n] = a[k].hi <= b[k].lo   ? TAPE_CHOICE_A
+                                : b[k].hi <= a[k].lo ? TAPE_CHOICE_B
+                                                     : TAPE_CHOICE_BOTH;
+            break;
+        case TAPE_MAX:
+            for (size_t k = 0; k < m; k++)
+                out[k * t->n] = a[k].lo >= b[k].hi   ? TAPE_CHOICE_A
+                                : b[k].lo >= a[k].hi ? TAPE_CHOICE_B
+                                                     : TAPE_CHOICE_BOTH;
+            break;
+        case TAPE_ABS:
+            for (size_t k = 0; k < m; k++)
+                out[k * t->n] = a[k].lo >= 0   ? TAPE_CHOICE_A
+                                : a[k].hi <= 0 ? TAPE_CHOICE_NEG_A
+                                               : TAPE_CHOICE_BOTH;
+            break;
+        default:
+            break;
+        }
+    }
+}
+
+void tape_eval_interval_choices(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *box,
+                                iv_t *out, uint8_t *choices)
 {
     for (size_t base = 0; base < n; base += L) {
         size_t m = n - base < L ? n - base : L;
@@ -195,7 +225,15 @@ void tape_eval_interval(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t
         fill_chunk(chunk, box + base, m);
         interval_chunk(t, ws->iv, L, chunk);
         memcpy(out + base, ws->iv + (size_t)(t->n - 1) * L, m * sizeof *out);
+        if (choices)
+            chunk_choices(t, ws->iv, m, choices + base * t->n);
     }
+}
+
+void tape_eval_interval(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *box,
+                        iv_t *out)
+{
+    tape_eval_interval_choices(t, ws, n, box, out, NULL);
 }
 
 /* ---- interval + gradient ------------------------------------------------------

@@ -2,8 +2,8 @@
  *
  * This is what keeps CSG scenes cheap: a union of 64 spheres is a chain of 63
  * min clauses, but in a small cell only one or two spheres can be the minimum.
- * One forward pass decides the choices from the slot intervals of the last
- * interval evaluation (aliasing a decided clause to its chosen operand), one
+ * The interval evaluation decides the choices (tape_eval_interval_choices);
+ * one forward pass aliases each decided clause to its chosen operand, one
  * backward pass marks what the result still needs, one forward pass emits it. */
 #include "tape.h"
 
@@ -62,8 +62,7 @@ int tape_is_single_use(const tape_t *t, uint32_t *scratch)
     return 1;
 }
 
-void tape_prune(const tape_t *t, const tape_ws_t *ws, unsigned lane, uint32_t *scratch,
-                tape_t *out)
+void tape_prune(const tape_t *t, const uint8_t *choices, uint32_t *scratch, tape_t *out)
 {
     const uint32_t n = t->n, DEAD = UINT32_MAX;
     uint32_t *alias = scratch, *index = scratch + n, *rewrite = scratch + 2 * n;
@@ -73,25 +72,17 @@ void tape_prune(const tape_t *t, const tape_ws_t *ws, unsigned lane, uint32_t *s
         const tape_clause_t *c = &t->clauses[i];
         alias[i] = i;
         rewrite[i] = KEEP;
-        /* comparisons with an empty (NaN) operand are false: nothing is decided */
-        iv_t va, vb;
-        switch ((tape_op_t)c->op) {
-        case TAPE_MIN:
-        case TAPE_MAX:
-            va = tape_ws_slot(ws, c->a, lane), vb = tape_ws_slot(ws, c->b, lane);
-            if (c->op == TAPE_MIN ? va.hi <= vb.lo : va.lo >= vb.hi)
-                alias[i] = alias[c->a];
-            else if (c->op == TAPE_MIN ? vb.hi <= va.lo : vb.lo >= va.hi)
-                alias[i] = alias[c->b];
+        switch ((tape_choice_t)choices[i]) {
+        case TAPE_CHOICE_A:
+            alias[i] = alias[c->a];
             break;
-        case TAPE_ABS:
-            va = tape_ws_slot(ws, c->a, lane);
-            if (va.lo >= 0)
-                alias[i] = alias[c->a];
-            else if (va.hi <= 0)
-                rewrite[i] = TO_NEG;
+        case TAPE_CHOICE_B:
+            alias[i] = alias[c->b];
             break;
-        default:
+        case TAPE_CHOICE_NEG_A:
+            rewrite[i] = TO_NEG;
+            break;
+        case TAPE_CHOICE_BOTH:
             break;
         }
     }

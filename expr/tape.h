@@ -116,6 +116,23 @@ void tape_eval_point(const tape_t *t, tape_ws_t *ws, size_t n, const double *x,
 void tape_eval_interval(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *box,
                         iv_t *out);
 
+/* The branch of a choice (min, max, abs) that an interval evaluation proved is
+ * the one taken everywhere over a box, for tape_prune. */
+typedef enum tape_choice {
+    TAPE_CHOICE_BOTH = 0, /* not decided (or not a choice): the clause stays */
+    TAPE_CHOICE_A,        /* min/max: operand a is the value (abs: a >= 0, the value is a) */
+    TAPE_CHOICE_B,        /* min/max: operand b is the value */
+    TAPE_CHOICE_NEG_A,    /* abs: a <= 0, the value is -a */
+} tape_choice_t;
+
+/* tape_eval_interval, and the choices decided over each box: choices[k *
+ * t->n + i] (n * t->n bytes, every entry written) for box k and clause i,
+ * from the same enclosures as out: min(a, b) takes a where A.hi <= B.lo over
+ * the box, b where B.hi <= A.lo; max likewise; abs(a) is a where A.lo >= 0,
+ * -a where A.hi <= 0; anything else (an empty operand included) is BOTH. */
+void tape_eval_interval_choices(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *box,
+                                iv_t *out, uint8_t *choices);
+
 /* Rigorous enclosure of f and of its gradient over each box. */
 void tape_eval_grad(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *box,
                     iv_grad_t *out);
@@ -158,10 +175,6 @@ static inline void tape_ray_point(const double o[3], const double d[3], double t
 void tape_eval_ray(const tape_t *t, tape_ws_t *ws, const double o[3], const double d[3],
                    size_t n, const iv_t *T, iv_t *g, iv_t *dg, double *rnd);
 
-/* After tape_eval_interval, the interval of clause i in lane `lane` of the
- * last chunk evaluated (lane < TAPE_LANES).  Used to prune min/max per cell. */
-iv_t tape_ws_slot(const tape_ws_t *ws, uint32_t i, unsigned lane);
-
 /* ---- pruning per region --------------------------------------------------------
  * Over a region where the branch of a choice is known, the choice can go:
  * min(a, b) with a <= b over the region becomes a, max likewise, abs(a) with a
@@ -182,11 +195,13 @@ int tape_is_single_use(const tape_t *t, uint32_t *scratch);
 /* Number of operands of an op (0, 1 or 2). */
 int tape_op_arity(tape_op_t op);
 
-/* Prune t for the box of lane `lane` of the last tape_eval_interval on ws (whose
- * slot intervals decide the choices) into out, whose clauses array must hold
- * t->n clauses.  scratch: 3 * t->n words.  No allocation. */
-void tape_prune(const tape_t *t, const tape_ws_t *ws, unsigned lane, uint32_t *scratch,
-                tape_t *out);
+/* Prune t with the choices of one box (t->n entries, as written by
+ * tape_eval_interval_choices for that box or any box that holds it) into out,
+ * whose clauses array must hold t->n clauses: a decided choice becomes its
+ * branch, and clauses the result no longer needs are dropped.  out->n <= t->n,
+ * and out equals t at every point of the box where t is defined.  scratch: 3 *
+ * t->n words.  No allocation. */
+void tape_prune(const tape_t *t, const uint8_t *choices, uint32_t *scratch, tape_t *out);
 
 #ifdef __cplusplus
 }

@@ -21,6 +21,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "../lipschitz/lipschitz.h"
 #include "ray.h"
 
 #define NL TAPE_LANES
@@ -300,22 +301,14 @@ static int tiny(double a, double b)
 /* 0 ∉ G'(T): g strictly monotone on T */
 static int monotone(const node_t *n) { return !iv_is_empty(n->Gp) && !iv_contains(n->Gp, 0.0); }
 
-/* Kalra–Barr: |g(m)| > G·h with G >= sup |g'| on T and h = max(m - a, b - m)
- * (plus the rounding of the points): no root.  Where the test has nothing to
- * work with — f undefined at m, or no finite bound G (f not Lipschitz on T,
- * e.g. sqrt at 0) — the interval test 0 ∉ F(T) stands in. */
+/* Kalra–Barr (lipschitz/lipschitz.h): |g(m)| > G·h + R: no root.  Where the
+ * test has nothing to work with — f undefined at m, or no finite bound G (f
+ * not Lipschitz on T, e.g. sqrt at 0) — the interval test 0 ∉ F(T) stands in. */
 static int lipschitz_excluded(const node_t *n)
 {
-    int s = sgn(n->gm);
-    double G = fmax(fabs(n->Gp.lo), fabs(n->Gp.hi));
-    if (s == S_UNDEF || !isfinite(G))
+    if (sgn(n->gm) == S_UNDEF || !isfinite(lip_derivative_bound(n->Gp)))
         return excluded(n);
-    if (!is_sign(s))
-        return 0;
-    double h = iv_up(fmax(n->m - n->a, n->b - n->m));
-    double bound = iv_up(iv_up(G * h) + fmax(fabs(n->R.lo), fabs(n->R.hi)));
-    double mig = s == S_POS ? n->gm.lo : -n->gm.hi;
-    return mig > bound; /* false when bound is NaN */
+    return lip_segment_excludes(n->a, n->b, n->m, n->gm, n->Gp, lip_magnitude(n->R));
 }
 
 static ray_hit_kind_t hit(ray_result_t *res, ray_hit_kind_t kind, double t, double lo,

@@ -1,0 +1,77 @@
+#!/usr/bin/env bash
+# Do two ivoct binaries give byte-identical outputs?  For refactors that must
+# not change behaviour: every scene is built with every output (.ivo, cells,
+# .vtu, .htg, .vdb, stats), and again with every test and the refinement, and
+# rendered with every method, with and without the octree, by both binaries; the files are compared byte for byte (the
+# stats without their timing and memory keys, which vary from run to run).
+#
+# Usage: scripts/same-outputs.sh IVOCT_A IVOCT_B [SCENE...]
+#   (default: every scenes/*.ini; depth 6, images 96x72; WORK keeps the files)
+# Exit 0 when every output is identical, 1 otherwise (the differing files listed).
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+
+if [ $# -lt 2 ]; then
+    sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'
+    exit 2
+fi
+a=$(realpath "$1") b=$(realpath "$2")
+shift 2
+scenes=("$@")
+[ ${#scenes[@]} -gt 0 ] || scenes=(scenes/*.ini)
+work=${WORK:-$(mktemp -d)}
+methods=(mitchell newton newton-ah mrfro mrfro-newton lipschitz sampling)
+
+# Keys of the stats files that measure the run (or name its files) rather
+# than its result.
+strip_timing() {
+    grep -v -E '"(time_s|build_time_s|render_time_s|peak_bytes|threads|octree_source)"' "$1" || true
+}
+
+# An OpenVDB file names itself with a random UUID in its header.
+strip_uuid() {
+    perl -0777 -pe 's/[0-9a-f]{8}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{12}/UUID/' "$1"
+}
+
+run_all() { # BIN DIR
+    local bin=$1 dir=$2
+    mkdir -p "$dir"
+    for s in "${scenes[@]}"; do
+        local n
+        n=$(basename "$s" .ini)
+        "$bin" build "$s" --depth 6 --threads 2 --quiet --save "$dir/$n.ivo" \
+            --cells "$dir/$n.csv" --vtu "$dir/$n.vtu" --htg "$dir/$n.htg" \
+            --vdb "$dir/$n.vdb" --stats "$dir/$n.build.json"
+        # every test of the chain, and the refinement (slabs, the normal cone)
+        "$bin" build "$s" --depth 6 --threads 2 --quiet --tests interval,lipschitz,ilie \
+            --refine 0.01 --save "$dir/$n.refine.ivo" --cells "$dir/$n.refine.csv" \
+            --stats "$dir/$n.refine.json"
+        for m in "${methods[@]}"; do
+            "$bin" render "$s" --octree "$dir/$n.ivo" --method "$m" --size 96x72 --quiet \
+                --threads 2 --png "$dir/$n.$m.png" --vti "$dir/$n.$m.vti" \
+                --stats "$dir/$n.$m.json"
+            "$bin" render "$s" --no-octree --method "$m" --size 48x36 --quiet \
+                --threads 2 --png "$dir/$n.$m.box.png" --stats "$dir/$n.$m.box.json"
+        done
+    done
+}
+
+run_all "$a" "$work/a"
+run_all "$b" "$work/b"
+
+differ=0 files=0
+for fa in "$work"/a/*; do
+    fb="$work/b/$(basename "$fa")"
+    files=$((files + 1))
+    if [[ $fa == *.json ]]; then
+        cmp -s <(strip_timing "$fa") <(strip_timing "$fb") && continue
+    elif [[ $fa == *.vdb ]]; then
+        cmp -s <(strip_uuid "$fa") <(strip_uuid "$fb") && continue
+    else
+        cmp -s "$fa" "$fb" && continue
+    fi
+    echo "differs: $(basename "$fa")"
+    differ=$((differ + 1))
+done
+echo "$files files compared, $differ differ (outputs in $work)"
+[ "$differ" -eq 0 ]

@@ -156,6 +156,33 @@ int oct_leaf_has_slab(const oct_tree_t *tree, uint32_t i);
  * Rounded up. */
 double oct_leaf_error_bound(const oct_tree_t *tree, uint32_t i);
 
+/* ---- a pruned tape per leaf ---------------------------------------------------
+ * For evaluations confined to one leaf (ray casting: the root finders search a
+ * leaf's segment of the ray): the tape pruned to the branches of min, max and
+ * abs that can matter in the leaf.  The tape of a leaf is pruned over a box
+ * that holds the leaf grown by `margin` on every side (rounded outward), and
+ * it equals f at every point of that box where f is defined; the margin must
+ * cover how far the evaluations may stray out of the leaf by rounding (ray/:
+ * ray_tape_margin).  Pruning follows the tree from the root as the build
+ * does, and a leaf shares its parent's tape where nothing more was decided. */
+typedef struct oct_leaf_tapes {
+    uint32_t n_leaves;
+    const tape_t **of_leaf; /* of_leaf[i]: the tape of leaf i (its tape->n <= the
+                               root tape's; the root tape itself where nothing
+                               was pruned) */
+    size_t n_tapes;         /* pruned tapes stored (the root tape not counted) */
+    size_t n_clauses;       /* their clauses in all */
+    tape_t *tapes;          /* storage: tapes[0] is the root tape, borrowed */
+    tape_clause_t *clauses;
+} oct_leaf_tapes_t;
+
+/* Prune `tape` (the tape the tree was built from; borrowed, it must outlive
+ * the result) for every leaf of tree.  A tape without choices gives every
+ * leaf the root tape.  Errors: out of memory, bad arguments. */
+int oct_leaf_tapes_build(const oct_tree_t *tree, const tape_t *tape, double margin,
+                         oct_leaf_tapes_t **out, ivoct_error_t *err);
+void oct_leaf_tapes_free(oct_leaf_tapes_t *lt);
+
 /* ---- native file (.ivo) -----------------------------------------------------
  * The scene the tree was built from travels with it so it can be rebuilt or
  * rendered: its name, its named subexpressions and f, as texts. */

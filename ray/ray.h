@@ -160,8 +160,10 @@ ray_hit_kind_t ray_find_root_n(const tape_t *tape, tape_ws_t *ws, ray_method_t m
 
 typedef struct ray_segment {
     double t_in, t_out;    /* out: t_in <= t_out */
-    const tape_t *tape;    /* out: the tape valid on the segment (e.g. pruned for an
-                            * octree leaf), or NULL for the renderer's tape */
+    const tape_t *tape;    /* out: the tape to search the segment with, equal to f on
+                            * every point the search evaluates (the octree source
+                            * with leaf tapes: the leaf's pruned tape), or NULL for
+                            * the renderer's tape */
     double t_max;          /* in: the hit found so far on this ray (INFINITY before
                             * one); only roots before it are still wanted */
     int64_t leaf;          /* out, informative: the octree leaf (index in
@@ -213,9 +215,23 @@ ray_source_t ray_box_source(ray_box_source_t *bs, const double box[6]);
 typedef struct ray_octree_source {
     const oct_tree_t *tree;
     int use_slabs;
+    /* NULL (the default): every segment is searched with the renderer's tape.
+     * Else each leaf's segment with its pruned tape (octree.h,
+     * oct_leaf_tapes_build with a margin of at least ray_tape_margin for the
+     * cameras rendered): borrowed, built from the renderer's tape and tree. */
+    const oct_leaf_tapes_t *tapes;
 } ray_octree_source_t;
 
 ray_source_t ray_octree_source(ray_octree_source_t *os, const oct_tree_t *tree);
+
+/* A margin for oct_leaf_tapes_build that covers every point the root finders
+ * evaluate for a leaf's segment, for the rays of cam and of every turntable
+ * view of it (ray_camera_orbit): how far those points can lie outside the
+ * closed leaf is bounded by the rounding of the segment's ends (a few ulps of
+ * t) and of the points p~(t) (2^-52 (|o_i| + 2|t|), expr/tape.h), with t at
+ * most the distance from the eye to the far side of box; the margin is 2^-40
+ * times a bound on |o_i| + 2t, which exceeds them by far.  Rounded up. */
+double ray_tape_margin(const ray_camera_t *cam, const double box[6]);
 
 /* ---- rendering -------------------------------------------------------------------- */
 

@@ -274,7 +274,7 @@ static int trav_next(const void *ctx, void *state, ray_segment_t *seg, uint64_t 
                 break;
             seg->t_in = lo;
             seg->t_out = hi;
-            seg->tape = NULL;
+            seg->tape = os->tapes && li < os->tapes->n_leaves ? os->tapes->of_leaf[li] : NULL;
             seg->leaf = li;
             if (leaves)
                 ++*leaves;
@@ -291,9 +291,28 @@ ray_source_t ray_octree_source(ray_octree_source_t *os, const oct_tree_t *tree)
 {
     os->tree = tree;
     os->use_slabs = 1;
+    os->tapes = NULL;
     int depth = tree && tree->depth > 0 && tree->depth <= OCT_MAX_DEPTH ? tree->depth : 0;
     ray_source_t s = {os,
                       offsetof(trav_state_t, stack) + (size_t)stack_cap(depth) * sizeof(entry_t),
                       trav_begin, trav_next};
     return s;
+}
+
+double ray_tape_margin(const ray_camera_t *cam, const double box[6])
+{
+    /* every view of the turntable has its eye at the same distance from the
+     * target: |o_i| <= |target|_inf + |eye - target|, and t <= |o - c| +
+     * diag/2 <= |target - c| + |eye - target| + diag/2 (c the box centre) */
+    double reach = 0, far = 0, diag = 0, tmax = 0;
+    for (int a = 0; a < 3; a++) {
+        double c = 0.5 * box[2 * a] + 0.5 * box[2 * a + 1];
+        reach += (cam->eye[a] - cam->target[a]) * (cam->eye[a] - cam->target[a]);
+        far += (cam->target[a] - c) * (cam->target[a] - c);
+        diag += (box[2 * a + 1] - box[2 * a]) * (box[2 * a + 1] - box[2 * a]);
+        tmax = fmax(tmax, fabs(cam->target[a]));
+    }
+    double o = tmax + sqrt(reach) * (1 + 0x1p-40);
+    double t = (sqrt(far) + sqrt(reach) + 0.5 * sqrt(diag)) * (1 + 0x1p-40);
+    return iv_up(0x1p-40 * (o + 2 * t));
 }

@@ -33,25 +33,36 @@ strip_uuid() {
     perl -0777 -pe 's/[0-9a-f]{8}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{12}/UUID/' "$1"
 }
 
+# Run a command; its exit status and error messages (paths made relative to
+# the output folder) become outputs too: NAME.status.
+run() { # DIR NAME BIN ARGS...
+    local dir=$1 name=$2
+    shift 2
+    local rc=0
+    "$@" 2> "$dir/$name.err" || rc=$?
+    { echo "exit $rc"; sed "s|$dir/||g" "$dir/$name.err"; } > "$dir/$name.status"
+    rm -f "$dir/$name.err"
+}
+
 run_all() { # BIN DIR
-    local bin=$1 dir=$2
+    local bin=$1 dir=$2 s n m
     mkdir -p "$dir"
     for s in "${scenes[@]}"; do
-        local n
         n=$(basename "$s" .ini)
-        "$bin" build "$s" --depth 6 --threads 2 --quiet --save "$dir/$n.ivo" \
-            --cells "$dir/$n.csv" --vtu "$dir/$n.vtu" --htg "$dir/$n.htg" \
-            --vdb "$dir/$n.vdb" --stats "$dir/$n.build.json"
+        local build=("$bin" build "$s" --depth 6 --threads 2 --quiet)
+        run "$dir" "$n.build" "${build[@]}" --save "$dir/$n.ivo" --cells "$dir/$n.csv" \
+            --vtu "$dir/$n.vtu" --htg "$dir/$n.htg" --stats "$dir/$n.build.json"
+        run "$dir" "$n.vdb" "${build[@]}" --vdb "$dir/$n.vdb"
         # every test of the chain, and the refinement (slabs, the normal cone)
-        "$bin" build "$s" --depth 6 --threads 2 --quiet --tests interval,lipschitz,ilie \
-            --refine 0.01 --save "$dir/$n.refine.ivo" --cells "$dir/$n.refine.csv" \
+        run "$dir" "$n.refine" "${build[@]}" --tests interval,lipschitz,ilie --refine 0.01 \
+            --save "$dir/$n.refine.ivo" --cells "$dir/$n.refine.csv" \
             --stats "$dir/$n.refine.json"
         for m in "${methods[@]}"; do
-            "$bin" render "$s" --octree "$dir/$n.ivo" --method "$m" --size 96x72 --quiet \
-                --threads 2 --png "$dir/$n.$m.png" --vti "$dir/$n.$m.vti" \
-                --stats "$dir/$n.$m.json"
-            "$bin" render "$s" --no-octree --method "$m" --size 48x36 --quiet \
-                --threads 2 --png "$dir/$n.$m.box.png" --stats "$dir/$n.$m.box.json"
+            local render=("$bin" render "$s" --method "$m" --threads 2 --quiet)
+            run "$dir" "$n.$m" "${render[@]}" --octree "$dir/$n.ivo" --size 96x72 \
+                --png "$dir/$n.$m.png" --vti "$dir/$n.$m.vti" --stats "$dir/$n.$m.json"
+            run "$dir" "$n.$m.box" "${render[@]}" --no-octree --size 48x36 \
+                --png "$dir/$n.$m.box.png" --stats "$dir/$n.$m.box.json"
         done
     done
 }
@@ -60,6 +71,11 @@ run_all "$a" "$work/a"
 run_all "$b" "$work/b"
 
 differ=0 files=0
+if ! cmp -s <(ls "$work/a") <(ls "$work/b"); then
+    echo "the two runs wrote different sets of files:"
+    diff <(ls "$work/a") <(ls "$work/b") || true
+    differ=1
+fi
 for fa in "$work"/a/*; do
     fb="$work/b/$(basename "$fa")"
     files=$((files + 1))

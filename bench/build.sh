@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Octree build: run time against certified error, per chain of tests (issue 7).
+# Octree build: run time against certified error, per chain of tests.
 #
 #   bash bench/build.sh [--quick] [--build DIR] [--surfaces "a b ..."] [--threads N]
 #                       [--eps "1e-2 1e-3 1e-4"]

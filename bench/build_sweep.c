@@ -1,4 +1,4 @@
-/* ivoct_build_sweep — octree build, run time against certified error (issue 7).
+/* ivoct_build_sweep — octree build, run time against certified error.
  *
  * For one scene, builds the octree for each chain of tests (interval;
  * interval, lipschitz; interval, lipschitz, ilie; and interval, ilie) at each

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The one-thread render times of bench/ray.sh in the layout of Flórez's table
-(Flórez 2008; shared/surfaces.md): rows the methods, columns the surfaces.
+(Flórez 2008; docs/surfaces.md): rows the methods, columns the surfaces.
 
     python3 bench/florez_table.py bench/results/ray.csv > table.md
 
@@ -22,7 +22,7 @@ METHODS = ["mitchell", "newton", "newton-ah", "mrfro", "mrfro-newton", "lipschit
 NAMES = {"mitchell": "Mitchell", "newton": "Newton", "newton-ah": "Newton+AH", "mrfro": "MRFro",
          "mrfro-newton": "MRFro+Newton", "lipschitz": "Lipschitz (K–B)",
          "sampling": "sampling (not certified)"}
-# Flórez 2008, seconds on a Pentium 4 (shared/surfaces.md)
+# Flórez 2008, seconds on a Pentium 4 (docs/surfaces.md)
 PUBLISHED = {
     "mitchell": [20, 36, 98, 80, 240, 99, 102, 75],
     "newton": [28, 47, 94, 96, 260, 180, 123, 94],

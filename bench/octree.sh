@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Octree build benchmark (issue 3), with the dense-sampling baseline side by side.
+# Octree build benchmark, with the dense-sampling baseline side by side.
 #
 #   bash bench/octree.sh [--quick] [--build DIR] [--cap SECONDS] [--surfaces "a b ..."]
 #

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Ray casting with and without the octree (issue 6), side by side in one run.
+# Ray casting with and without the octree, side by side in one run.
 #   bash bench/ray.sh [--build DIR] [--size WxH] [--reps N] [--surfaces "sphere gumdrop"]
 #                     [--methods "mitchell lipschitz"] [--tests LIST] [--out NAME]
 #                     [--baseline DIR]

@@ -1,4 +1,4 @@
-/* ivoct_ray_error — render time against hit error (issue 7): ivoct's ray
+/* ivoct_ray_error — render time against hit error: ivoct's ray
  * methods with and without the octree, and the OpenVDB level-set ray caster,
  * against the high-precision reference of tests/support/ray_reference.c.
  *

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Render time against hit error, and the OpenVDB level-set baseline (issue 7).
+# Render time against hit error, and the OpenVDB level-set baseline.
 #   bash bench/ray_error.sh [--build DIR] [--out NAME] [--quick] [ivoct_ray_error options]
 # Runs build/release/bench/ivoct_ray_error (see bench/ray_error.c) over the eight
 # comparison surfaces at each scene's camera and size (300x300), every method with

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Gradient-adaptive refinement against a uniform octree at equal certified error (issue 4).
+# Gradient-adaptive refinement against a uniform octree at equal certified error.
 #
 #   bash bench/refine.sh [--build DIR] [--surfaces "sphere gumdrop mcmullen-k3"]
 #                        [--eps "1e-2 1e-3 1e-4 1e-5 1e-6"] [--threads N]

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The numerical stability stress suite (issue 7, item 5) as a table: runs the two
+# The numerical stability stress suite as a table: runs the two
 # stability test executables (tests/test_stab_octree.c, tests/test_stab_rays.c) with
 # IVOCT_STAB_CSV set, so that each case appends one row
 #   suite,case,outcome,time_s,error

@@ -1,4 +1,4 @@
-// The OpenVDB level-set baseline of issue 7: see vdb_raycast.h.
+// The OpenVDB level-set baseline of bench/ray_error.c: see vdb_raycast.h.
 #include "vdb_raycast.h"
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-/* The OpenVDB baseline of issue 7: a narrow-band level set sampled from f,
+/* The OpenVDB baseline of bench/ray_error.c: a narrow-band level set sampled from f,
  * ray cast with openvdb::tools::LevelSetRayIntersector (bench/vdb_raycast.cpp).
  *
  * The grid: uniform voxels of edge h (default: the smallest edge of the

@@ -1,7 +1,7 @@
 /* ivoct — the native octree file (.ivo).
  *
  * Layout, all integers little-endian, doubles as their IEEE bits:
- *   "IVOCTREE"  u32 version (2; version 1 had no refine, slabs)
+ *   "IVOCTREE"  u32 version (2, the only one oct_load reads)
  *   u32 depth  u32 tests  f64 refine  u32 has_slabs  f64 box[6]
  *   str name  u32 n_lets  (str let_name  str let_text) * n_lets  str f
  *   u32 n_nodes  u32 n_leaves

@@ -71,10 +71,9 @@ static void set_deriv_points(const ctx_t *c, node_t *n, const lanes_t *L, int im
 
 /* Evaluate k (<= 2) nodes: box and midpoint, and both ends when `ends` (else
  * the caller has set them); derivative methods get G', R and the derivative
- * estimates at the points from the same pass.  (With three partials per slot
- * a derivative pass cost ~6 interval passes, and an interval pass came first
- * to spare it on excluded segments; with the one tangent of tape_eval_ray it
- * costs ~2, and the second pass no longer pays.)
+ * estimates at the points from the same pass: with the one tangent of
+ * tape_eval_ray a pass with derivatives costs about two interval passes, too
+ * little for an interval pass first (to spare it on excluded segments) to pay.
  *
  * `skip`: the caller drops a node with 0 ∉ G(T) before looking at anything
  * else (the search of mitchell, newton, newton-ah).  The boxes then go first

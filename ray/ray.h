@@ -8,7 +8,7 @@
  * surface leaves the ray meets, front to back; without one, a single segment:
  * the ray clipped to the scene box (ray_box_source).  The hits are shaded
  * (Lambert + ambient from the normal ∇f/|∇f|) into an RGB image; the per-pixel
- * buffers of DESIGN.md §4 (t, hit, point, normal, dir) can be written as a VTK
+ * buffers of docs/DESIGN.md §4 (t, hit, point, normal, dir) can be written as a VTK
  * .vti, the image as PNG.
  *
  * Points along a ray.  The point evaluated at parameter t is the rounded
@@ -235,7 +235,7 @@ double ray_tape_margin(const ray_camera_t *cam, const double box[6]);
 
 /* ---- rendering -------------------------------------------------------------------- */
 
-/* The buffers of DESIGN.md §4, row-major with row 0 the top of the image:
+/* The buffers of docs/DESIGN.md §4, row-major with row 0 the top of the image:
  * pixel (col, row) at index row*width + col, 3-vectors at 3*index. */
 typedef struct ray_image {
     int width, height;

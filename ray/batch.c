@@ -2,6 +2,9 @@
  * of the ray evaluator (see roots_internal.h). */
 #include "roots_internal.h"
 
+/* eval_nodes puts up to 2 nodes in one call: a box, a midpoint and two ends each. */
+_Static_assert(RAY_BATCH >= 8, "a batch holds two nodes with their box and three points");
+
 int lane_point(lanes_t *L, double t)
 {
     for (int k = 0; k < L->n; k++)

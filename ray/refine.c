@@ -19,6 +19,9 @@
  *     with guards, or 7 equally spaced points, until the bracket is 4 ulps. */
 #include "roots_internal.h"
 
+/* The candidate lists below are written for 8 points per evaluator call. */
+_Static_assert(RAY_BATCH == 8, "refine.c's candidate lists hold RAY_BATCH = 8 points");
+
 
 /* Phase 1: a guess in (a, b), or NaN.  fa, fb the values at a, b (of
  * opposite signs, or fb ~ 0); dfa, dfb derivative estimates or NaN. */

@@ -62,27 +62,6 @@ static void tmp_path(char *out, size_t n, const char *name)
     snprintf(out, n, "%s/%s", g_dir, name);
 }
 
-static unsigned char *read_all(const char *path, size_t *n)
-{
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    size_t cap = 1 << 16;
-    unsigned char *p = malloc(cap);
-    assert_non_null(p);
-    *n = 0;
-    size_t got;
-    while ((got = fread(p + *n, 1, cap - *n, f)) > 0) {
-        *n += got;
-        if (*n == cap) {
-            cap *= 2;
-            p = realloc(p, cap);
-            assert_non_null(p);
-        }
-    }
-    fclose(f);
-    return p;
-}
-
 static void write_all(const char *path, const unsigned char *p, size_t n)
 {
     FILE *f = fopen(path, "wb");
@@ -115,16 +94,6 @@ static uint32_t get_u32(const unsigned char *p)
     return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
-static void load_scene(const char *name, scene_t *s)
-{
-    char path[4096];
-    snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), name);
-    ivoct_error_t err;
-    ivoct_error_clear(&err);
-    if (scene_load(path, s, &err) != 0)
-        fail_msg("cannot load %s: %s", path, err.msg);
-}
-
 static oct_tree_t *build_ex(const tape_t *tape, const double box[6], int depth, unsigned tests,
                             double refine)
 {
@@ -149,7 +118,7 @@ static oct_tree_t *build(const tape_t *tape, const double box[6], int depth)
 static unsigned char *saved_scene_ex(const char *name, int depth, int slabs, size_t *n)
 {
     scene_t s;
-    load_scene(name, &s);
+    tu_load_scene(name, &s);
     oct_tree_t *t = slabs ? build_ex(s.tape, s.box, depth, ALL_TESTS, 0.05)
                           : build(s.tape, s.box, depth);
     assert_int_equal(t->slabs != NULL, slabs);
@@ -159,7 +128,7 @@ static unsigned char *saved_scene_ex(const char *name, int depth, int slabs, siz
     ivoct_error_t err;
     ivoct_error_clear(&err);
     assert_int_equal(oct_save(t, &src, path, &err), 0);
-    unsigned char *p = read_all(path, n);
+    unsigned char *p = tu_read_file(path, n);
     remove(path);
     oct_free(t);
     scene_free(&s);
@@ -346,7 +315,7 @@ static void round_trip(const oct_tree_t *t, const oct_source_t *src)
     same_source(src ? src : &none, &back);
     assert_int_equal(oct_save(u, &back, p2, &err), 0);
     size_t n1, n2;
-    unsigned char *b1 = read_all(p1, &n1), *b2 = read_all(p2, &n2);
+    unsigned char *b1 = tu_read_file(p1, &n1), *b2 = tu_read_file(p2, &n2);
     assert_int_equal(n1, n2);
     assert_memory_equal(b1, b2, n1);
     /* src may be NULL when loading */
@@ -369,7 +338,7 @@ static void test_round_trip(void **state)
                                         "whitney-umbrella"};
     for (size_t i = 0; i < sizeof names / sizeof *names; i++) {
         scene_t s;
-        load_scene(names[i], &s);
+        tu_load_scene(names[i], &s);
         oct_tree_t *t = build(s.tape, s.box, 4);
         oct_source_t src = {s.name, s.n_lets, s.let_names, s.let_texts, s.f_text};
         round_trip(t, &src);
@@ -420,7 +389,7 @@ static void test_missing_and_unwritable(void **state)
     assert_true(err.msg[0] != '\0');
 
     scene_t s;
-    load_scene("sphere", &s);
+    tu_load_scene("sphere", &s);
     oct_tree_t *u = build(s.tape, s.box, 3);
     tmp_path(path, sizeof path, "no-such-dir/x.ivo");
     ivoct_error_clear(&err);

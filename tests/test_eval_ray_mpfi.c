@@ -30,8 +30,6 @@ typedef struct {
     long checked, checked_deriv, skipped;
 } counts_t;
 
-static double lerp(double a, double b, double u) { return a + (b - a) * u; }
-
 /* mpfi: Σ |g_k| rho_k with rho_k = 2^-51 (|o_k| + 2 tmax |d_k|), exactly */
 static void rounding_sum(mpfi_t out, mpfi_t g[3], const double o[3], const double d[3],
                          double tmax)
@@ -127,14 +125,14 @@ static void check_tape(const tape_t *t, const double box[6], const char *what, l
         double o[3], d[3];
         for (int k = 0; k < 3; k++) {
             double lo = box[2 * k], hi = box[2 * k + 1], w = hi - lo;
-            o[k] = lerp(lo - w, hi + w, tu_uniform(rng));
-            d[k] = tu_next(rng) % 8 == 0 ? 0.0 : lerp(-1, 1, tu_uniform(rng));
+            o[k] = tu_lerp(lo - w, hi + w, tu_uniform(rng));
+            d[k] = tu_next(rng) % 8 == 0 ? 0.0 : tu_lerp(-1, 1, tu_uniform(rng));
         }
         iv_t T[BATCH], g[BATCH], dg[BATCH], g2[BATCH];
         double rnd[BATCH];
         for (int i = 0; i < BATCH; i++) {
             double len = 3 * diag * exp2(-40.0 * tu_uniform(rng));
-            double a = lerp(-2 * diag, 2 * diag, tu_uniform(rng));
+            double a = tu_lerp(-2 * diag, 2 * diag, tu_uniform(rng));
             T[i] = tu_next(rng) % 8 == 0 ? iv_point(a) : iv_make(a, a + len);
         }
         tape_eval_ray(t, ws, o, d, BATCH, T, g, dg, rnd);
@@ -147,7 +145,7 @@ static void check_tape(const tape_t *t, const double box[6], const char *what, l
             assert_false(rnd[i] != rnd[i]);
             for (int j = 0; j < points_per_lane; j++) {
                 double tt = j == 0 ? T[i].lo : j == 1 ? T[i].hi
-                                             : lerp(T[i].lo, T[i].hi, tu_uniform(rng));
+                                             : tu_lerp(T[i].lo, T[i].hi, tu_uniform(rng));
                 tt = fmin(fmax(tt, T[i].lo), T[i].hi);
                 check_at(t, what, o, d, T[i], tt, g[i], dg[i], rnd[i],
                          (j & 1) ? ORACLE_CONST_HI : ORACLE_CONST_LO, cnt);
@@ -162,15 +160,11 @@ static void test_every_scene(void **state)
     (void)state;
     char **paths;
     int n = tu_scene_files(&paths);
-    assert_true(n >= 19);
     uint64_t rng = tu_seed(20261203);
     long nray = (long)(400 * tu_scale());
     for (int i = 0; i < n; i++) {
         scene_t s;
-        ivoct_error_t err;
-        ivoct_error_clear(&err);
-        if (scene_load(paths[i], &s, &err) != 0)
-            fail_msg("cannot load %s", paths[i]);
+        tu_load_scene(paths[i], &s);
         counts_t c = {0, 0, 0};
         check_tape(s.tape, s.box, paths[i], nray, 3, &rng, &c);
         printf("%-40s %6ld values checked, %6ld derivatives, %5ld skipped\n", paths[i],
@@ -182,33 +176,6 @@ static void test_every_scene(void **state)
     tu_free_list(paths, n);
 }
 
-/* every op of the tape language (the list of tests/test_ilie_mpfi.c) */
-static const char *const op_exprs[] = {
-    "x + y", "x - y", "-x + 3*y - z/4", "0.1*x - y + 1e-3",
-    "x*y", "x*y*z", "(x + y)*(x - y)", "(x + 0.1)*(y - 0.3)*(z + 0.7)", "x^2", "(x - y)^2",
-    "(x*y - z)^2", "(x^2 + y^2 + z^2 - 1)^2",
-    "x^3", "x^4", "x^5", "(x - 0.5)^7", "(x*y)^6", "x^-1", "x^-2", "x^-3", "(x + y)^-4",
-    "x^0.5", "x^1.5", "x^2.5", "x^-0.5", "x^0.3", "(x*x + y)^0.75", "(1 + x^2)^-1.5",
-    "x/y", "1/x", "y/(x + 0.5)", "(x + y)/(1 + x^2 + y^2)", "x/(y*z)",
-    "sqrt(x)", "sqrt(x^2 + y^2 + z^2)", "sqrt(x*y + z)", "exp(x)", "exp(x*y)",
-    "exp(-(x^2 + y^2))", "log(x)", "log(x^2 + y*z)", "log(1 + x^2)",
-    "sin(x)", "cos(x)", "tan(x)", "atan(x)", "sin(x*y)", "cos(3*x + y)", "tan(x*y - z)",
-    "atan(x*y - z)", "atan(1/x)",
-    "abs(x)", "abs(x - y)", "abs(x*y) - z", "min(x, y)", "max(x, y)", "min(x*y, z)",
-    "max(x^2, y) - z", "min(max(x, y), z)", "max(abs(x) - 1, y*z)",
-    "sin(3*x)*cos(2*y) + z", "exp(x*y) - log(1 + z^2)", "abs(x - y) - min(x*z, y)",
-    "max(x, y*z)/(2 + sin(x))", "x^3 - 3*x*y^2 + z", "atan(x/y) + sqrt(abs(z))",
-    "1/(x^2 + y^2 + 0.01) - exp(z)", "min(x^2 + y^2 - 1, (x - 1)^2 + z^2 - 0.5)",
-    "log(exp(x) + exp(y))", "tan(atan(x) / 2)", "pi*x - e*y", "(x*y*z)^(1/3)", "2^x",
-};
-
-/* a general box, a small one around 0 (poles, domain edges), a big one (overflow) */
-static const double op_boxes[][6] = {
-    {-2, 3, -1.5, 2.5, -3, 1},
-    {-1e-3, 2e-3, -2e-3, 1e-3, -1e-3, 1e-3},
-    {-1e3, 2e3, -3e3, 1e3, -1e3, 1e3},
-};
-
 static void test_every_operation(void **state)
 {
     (void)state;
@@ -217,16 +184,17 @@ static void test_every_operation(void **state)
     if (nray < 4)
         nray = 4;
     int seen[TAPE_OP_COUNT] = {0};
-    for (size_t e = 0; e < sizeof op_exprs / sizeof *op_exprs; e++) {
+    /* every op of the tape language (testutil's list) */
+    for (size_t e = 0; e < tu_n_op_exprs; e++) {
         tape_t *t;
         ivoct_error_t err;
         ivoct_error_clear(&err);
-        assert_int_equal(tape_compile(op_exprs[e], &t, &err), 0);
+        assert_int_equal(tape_compile(tu_op_exprs[e], &t, &err), 0);
         for (uint32_t i = 0; i < t->n; i++)
             seen[t->clauses[i].op] = 1;
         counts_t c = {0, 0, 0};
-        for (size_t b = 0; b < sizeof op_boxes / sizeof *op_boxes; b++)
-            check_tape(t, op_boxes[b], op_exprs[e], nray, 3, &rng, &c);
+        for (size_t b = 0; b < TU_N_OP_BOXES; b++)
+            check_tape(t, tu_op_boxes[b], tu_op_exprs[e], nray, 3, &rng, &c);
         assert_true(c.checked > 0);
         tape_free(t);
     }

@@ -39,37 +39,6 @@ typedef struct {
 
 /* ---- sampling ------------------------------------------------------------------- */
 
-static double lerp(double a, double b, double u)
-{
-    double v = a + (b - a) * u;
-    return v < a ? a : v > b ? b : v;
-}
-
-static iv_box_t random_cell(const double *box, uint64_t *rng)
-{
-    iv_t r[3];
-    double frac = exp2(-30.0 * tu_uniform(rng));
-    int point = tu_next(rng) % 16 == 0;
-    for (int k = 0; k < 3; k++) {
-        double lo = box[2 * k], hi = box[2 * k + 1];
-        double w = (hi - lo) * frac;
-        double a = lerp(lo, hi - w, tu_uniform(rng));
-        double e = point ? a : fmin(a + w, hi);
-        r[k] = iv_make(a, e < a ? a : e);
-    }
-    iv_box_t b = {r[0], r[1], r[2]};
-    return b;
-}
-
-static double pick(iv_t r, uint64_t *rng)
-{
-    switch (tu_next(rng) % 4) {
-    case 0: return r.lo;
-    case 1: return r.hi;
-    default: return lerp(r.lo, r.hi, tu_uniform(rng));
-    }
-}
-
 /* ---- the properties for one cell ------------------------------------------------ */
 
 typedef struct {
@@ -114,7 +83,7 @@ static int check_cell(const tape_t *t, const iv_box_t *cell, const ilie_t *l, in
     st->excluded += excluded;
     st->fallback += l->a[0] == 0.0 && l->a[1] == 0.0 && l->a[2] == 0.0;
     for (int j = 0; j < npoints; j++) {
-        double p[3] = {pick(cell->x, rng), pick(cell->y, rng), pick(cell->z, rng)};
+        double p[3] = {tu_pick(cell->x, rng), tu_pick(cell->y, rng), tu_pick(cell->z, rng)};
         oracle_const_t which = (j & 1) ? ORACLE_CONST_HI : ORACLE_CONST_LO;
         if (oracle_eval(t, p, which, w->v, NULL) != 0) {
             st->skipped++;
@@ -188,7 +157,7 @@ static int check_tape(const tape_t *t, const double box[6], long ncells, int npo
         iv_box_t cells[BATCH];
         ilie_t out[BATCH];
         for (int i = 0; i < BATCH; i++)
-            cells[i] = random_cell(box, rng);
+            cells[i] = tu_random_subbox(box, rng);
         ilie_eval(t, ws, BATCH, cells, out);
         for (int i = 0; i < BATCH && !fail; i++) {
             /* property 4, on every 8th batch */
@@ -213,41 +182,9 @@ static int check_tape(const tape_t *t, const double box[6], long ncells, int npo
 
 /* ---- every operation -------------------------------------------------------------- */
 
-static const char *const op_exprs[] = {
-    /* linear */
-    "x + y", "x - y", "-x + 3*y - z/4", "0.1*x - y + 1e-3",
-    /* products */
-    "x*y", "x*y*z", "(x + y)*(x - y)", "(x + 0.1)*(y - 0.3)*(z + 0.7)", "x^2", "(x - y)^2",
-    "(x*y - z)^2", "(x^2 + y^2 + z^2 - 1)^2",
-    /* integer powers */
-    "x^3", "x^4", "x^5", "(x - 0.5)^7", "(x*y)^6", "x^-1", "x^-2", "x^-3", "(x + y)^-4",
-    /* real powers */
-    "x^0.5", "x^1.5", "x^2.5", "x^-0.5", "x^0.3", "(x*x + y)^0.75", "(1 + x^2)^-1.5",
-    /* division */
-    "x/y", "1/x", "y/(x + 0.5)", "(x + y)/(1 + x^2 + y^2)", "x/(y*z)",
-    /* sqrt exp log */
-    "sqrt(x)", "sqrt(x^2 + y^2 + z^2)", "sqrt(x*y + z)", "exp(x)", "exp(x*y)",
-    "exp(-(x^2 + y^2))", "log(x)", "log(x^2 + y*z)", "log(1 + x^2)",
-    /* trigonometric */
-    "sin(x)", "cos(x)", "tan(x)", "atan(x)", "sin(x*y)", "cos(3*x + y)", "tan(x*y - z)",
-    "atan(x*y - z)", "atan(1/x)",
-    /* abs min max */
-    "abs(x)", "abs(x - y)", "abs(x*y) - z", "min(x, y)", "max(x, y)", "min(x*y, z)",
-    "max(x^2, y) - z", "min(max(x, y), z)", "max(abs(x) - 1, y*z)",
-    /* composites */
-    "sin(3*x)*cos(2*y) + z", "exp(x*y) - log(1 + z^2)", "abs(x - y) - min(x*z, y)",
-    "max(x, y*z)/(2 + sin(x))", "x^3 - 3*x*y^2 + z", "atan(x/y) + sqrt(abs(z))",
-    "1/(x^2 + y^2 + 0.01) - exp(z)", "min(x^2 + y^2 - 1, (x - 1)^2 + z^2 - 0.5)",
-    "log(exp(x) + exp(y))", "tan(atan(x) / 2)", "pi*x - e*y", "(x*y*z)^(1/3)", "2^x",
-};
 
-/* a general box, a small box around 0 (poles, domain edges), a big one (overflow) */
-static const double op_boxes[][6] = {
-    {-2, 3, -1.5, 2.5, -3, 1},
-    {-1e-3, 2e-3, -2e-3, 1e-3, -1e-3, 1e-3},
-    {-1e3, 2e3, -3e3, 1e3, -1e3, 1e3},
-    {-12, 9, -10, 11, -7, 13},
-};
+/* the boxes of tu_op_boxes, and one more: a box of edge ~20 that straddles 0 */
+static const double op_box_extra[6] = {-12, 9, -10, 11, -7, 13};
 
 #define OP_CELLS 800
 #define OP_POINTS 3
@@ -256,20 +193,21 @@ static void test_every_operation(void **state)
 {
     (void)state;
     uint64_t rng = tu_seed(20261201);
-    size_t nexpr = sizeof op_exprs / sizeof *op_exprs;
-    size_t nbox = sizeof op_boxes / sizeof *op_boxes;
+    size_t nexpr = tu_n_op_exprs;
+    size_t nbox = TU_N_OP_BOXES + 1;
     long ncells = (long)(OP_CELLS * tu_scale());
     long total = 0, checked = 0, slab = 0;
     for (size_t i = 0; i < nexpr; i++) {
         tape_t *t = NULL;
         ivoct_error_t err;
         ivoct_error_clear(&err);
-        if (tape_compile(op_exprs[i], &t, &err) != 0)
-            fail_msg("cannot compile \"%s\": %s", op_exprs[i], err.msg);
+        if (tape_compile(tu_op_exprs[i], &t, &err) != 0)
+            fail_msg("cannot compile \"%s\": %s", tu_op_exprs[i], err.msg);
         for (size_t b = 0; b < nbox; b++) {
             stats_t st;
-            if (check_tape(t, op_boxes[b], ncells, OP_POINTS, &rng, &st) != 0)
-                fail_msg("\"%s\" on box %zu: %s", op_exprs[i], b, st.failure);
+            const double *box = b < TU_N_OP_BOXES ? tu_op_boxes[b] : op_box_extra;
+            if (check_tape(t, box, ncells, OP_POINTS, &rng, &st) != 0)
+                fail_msg("\"%s\" on box %zu: %s", tu_op_exprs[i], b, st.failure);
             total += st.cells;
             checked += st.checked;
             slab += st.slab_checked;
@@ -291,12 +229,7 @@ static void test_every_operation(void **state)
 static void check_scene(const char *path, uint64_t *rng)
 {
     scene_t s;
-    ivoct_error_t err;
-    ivoct_error_clear(&err);
-    if (scene_load(path, &s, &err) != 0) {
-        char buf[1024];
-        fail_msg("cannot load %s: %s", path, ivoct_error_format(&err, buf, sizeof buf));
-    }
+    tu_load_scene(path, &s);
     long ncells = (long)(SCENE_CELLS * tu_scale());
     long budget = (long)(SCENE_CLAUSE_BUDGET * tu_scale());
     int npoints = (int)(budget / ((long)s.tape->n * ncells));
@@ -318,7 +251,6 @@ static void test_every_scene(void **state)
     (void)state;
     char **paths;
     int n = tu_scene_files(&paths);
-    assert_true(n >= 19);
     uint64_t rng = tu_seed(20261202);
     for (int i = 0; i < n; i++)
         check_scene(paths[i], &rng);

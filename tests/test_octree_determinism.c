@@ -30,27 +30,6 @@ static const char *const SCENES[] = {
     "steiner-roman",
 };
 
-static unsigned char *read_all(const char *path, size_t *n)
-{
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    size_t cap = 1 << 16;
-    unsigned char *p = malloc(cap);
-    assert_non_null(p);
-    *n = 0;
-    size_t got;
-    while ((got = fread(p + *n, 1, cap - *n, f)) > 0) {
-        *n += got;
-        if (*n == cap) {
-            cap *= 2;
-            p = realloc(p, cap);
-            assert_non_null(p);
-        }
-    }
-    fclose(f);
-    return p;
-}
-
 /* The statistics that must not depend on the thread count. */
 static void same_counts(const oct_stats_t *a, const oct_stats_t *b)
 {
@@ -78,13 +57,10 @@ static void test_threads(void **state)
     int depth = tu_sanitizer_build() ? 5 : 6;
     static const int runs[] = {1, 2, 3, 2};
     for (size_t i = 0; i < sizeof SCENES / sizeof *SCENES; i++) {
-        char path[4096];
-        snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), SCENES[i]);
         scene_t s;
+        tu_load_scene(SCENES[i], &s);
         ivoct_error_t err;
         ivoct_error_clear(&err);
-        if (scene_load(path, &s, &err) != 0)
-            fail_msg("cannot load %s: %s", path, err.msg);
         oct_source_t src = {s.name, s.n_lets, s.let_names, s.let_texts, s.f_text};
         double edge = fmax(s.box[1] - s.box[0], fmax(s.box[3] - s.box[2], s.box[5] - s.box[4]));
         /* the scene's tests (interval, lipschitz), then the whole chain with
@@ -107,7 +83,7 @@ static void test_threads(void **state)
                 if (oct_save(t, &src, out, &err) != 0)
                     fail_msg("oct_save %s: %s", out, err.msg);
                 size_t n;
-                unsigned char *bytes = read_all(out, &n);
+                unsigned char *bytes = tu_read_file(out, &n);
                 if (!first) {
                     first = bytes, first_n = n, first_st = t->stats;
                     printf("%-16s %-16s depth %d: %8u leaves, %9llu cells, %8zu bytes", SCENES[i],
@@ -139,13 +115,10 @@ static void test_slabs_unused(void **state)
     (void)state;
     int depth = tu_sanitizer_build() ? 5 : 6;
     for (size_t i = 0; i < sizeof SCENES / sizeof *SCENES; i++) {
-        char path[4096];
-        snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), SCENES[i]);
         scene_t s;
+        tu_load_scene(SCENES[i], &s);
         ivoct_error_t err;
         ivoct_error_clear(&err);
-        if (scene_load(path, &s, &err) != 0)
-            fail_msg("cannot load %s: %s", path, err.msg);
         double edge = fmax(s.box[1] - s.box[0], fmax(s.box[3] - s.box[2], s.box[5] - s.box[4]));
         static const unsigned chains[] = {
             OCT_TEST_INTERVAL | OCT_TEST_ILIE,

@@ -189,12 +189,10 @@ static void check_tree(const scene_t *s, const oct_tree_t *tree, const char *wha
 /* require_early: the tolerance is coarse enough that some leaves must stop early */
 static void run(const char *scene, int depth, double refine, int require_early)
 {
-    char path[4096];
-    snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), scene);
     scene_t s;
+    tu_load_scene(scene, &s);
     ivoct_error_t err;
     ivoct_error_clear(&err);
-    assert_int_equal(scene_load(path, &s, &err), 0);
     oct_params_t p = {.depth = depth,
                       .tests = OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE,
                       .refine = refine,

@@ -173,13 +173,8 @@ static void check_depth(const scene_t *s, int depth, unsigned tests)
 static void test_sphere(void **state)
 {
     (void)state;
-    char path[4096];
-    snprintf(path, sizeof path, "%s/scenes/sphere.ini", tu_source_dir());
     scene_t s;
-    ivoct_error_t err;
-    ivoct_error_clear(&err);
-    if (scene_load(path, &s, &err) != 0)
-        fail_msg("cannot load %s: %s", path, err.msg);
+    tu_load_scene("sphere", &s);
     /* the premise of the exact classification: a cube box centred on the sphere */
     for (int a = 0; a < 3; a++) {
         assert_true(s.box[2 * a] == -1.05);

@@ -40,16 +40,6 @@
 #include "../scene/scene.h"
 #include "support/testutil.h"
 
-static void load(const char *path, scene_t *s)
-{
-    ivoct_error_t err;
-    ivoct_error_clear(&err);
-    if (scene_load(path, s, &err) != 0) {
-        char buf[1024];
-        fail_msg("cannot load %s: %s", path, ivoct_error_format(&err, buf, sizeof buf));
-    }
-}
-
 static oct_tree_t *build(const scene_t *s, int depth, unsigned tests, double refine, int threads)
 {
     oct_params_t p = {.depth = depth, .tests = tests, .refine = refine, .threads = threads};
@@ -201,11 +191,10 @@ static void test_every_scene(void **state)
     (void)state;
     char **paths;
     int n = tu_scene_files(&paths);
-    assert_true(n >= 19);
     int depth = tu_sanitizer_build() ? 4 : 5;
     for (int i = 0; i < n; i++) {
         scene_t s;
-        load(paths[i], &s);
+        tu_load_scene(paths[i], &s);
         static const unsigned configs[3] = {
             OCT_TEST_INTERVAL, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ,
             OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE};
@@ -270,7 +259,7 @@ static void test_tape_pruning(void **state)
     char path[4096];
     snprintf(path, sizeof path, "%s/scenes/csg-64-spheres.ini", tu_source_dir());
     scene_t s;
-    load(path, &s);
+    tu_load_scene(path, &s);
     assert_true(tape_has_choices(s.tape));
     int depth = 6;
     oct_tree_t *t = build(&s, depth, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ, 0, 2);

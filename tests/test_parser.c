@@ -137,51 +137,62 @@ static void test_precedence(void **state)
     static const struct {
         const char *text;
         double x, y, z, want;
+        int exact; /* every operand, step and result a double: +, -, *, / and
+                    * integer powers of small integers and halves, min, max */
     } cases[] = {
-        {"1+2*3", 0, 0, 0, 7},
-        {"(1+2)*3", 0, 0, 0, 9},
-        {"2^3^2", 0, 0, 0, 512},       /* right-associative: 2^9 */
-        {"(2^3)^2", 0, 0, 0, 64},
-        {"x^y^z", 2, 3, 2, 512},
-        {"-x^2", 3, 0, 0, -9},         /* -(x^2) */
-        {"(-x)^2", 3, 0, 0, 9},
-        {"-2^2", 0, 0, 0, -4},
-        {"2^-x", 1, 0, 0, 0.5},        /* 2^(-x) */
-        {"2^-x^2", 2, 0, 0, 1.0 / 16}, /* 2^(-(x^2)) */
-        {"-x^-2", 2, 0, 0, -0.25},
-        {"x-y-z", 1, 2, 3, -4},        /* left-associative */
-        {"x-y+z", 1, 2, 3, 2},
-        {"x/y/z", 8, 2, 2, 2},
-        {"x/y*z", 8, 2, 2, 8},
-        {"2*x^2", 3, 0, 0, 18},
-        {"x*y^2", 2, 3, 0, 18},
-        {"-x*y", 2, 3, 0, -6},
-        {"x*-y", 2, 3, 0, -6},
-        {"x - -y", 2, 3, 0, 5},
-        {"--x", 2, 0, 0, 2},
-        {"+x", 2, 0, 0, 2},
-        {"- + - x", 2, 0, 0, 2},
-        {"1 - 2 * 3 ^ 2 / 6", 0, 0, 0, -2},
-        {"x\n+\ty\r\n*  z", 1, 2, 3, 7},
-        {"1e-3*1e3", 0, 0, 0, 1},
-        {".5 + 1.5E+1 + 2.", 0, 0, 0, 17.5},
-        {"2^10", 0, 0, 0, 1024},
-        {"x^3 - x^-1", 2, 0, 0, 7.5},
-        {"x^0.5 + x^1.5", 4, 0, 0, 10},
-        {"x^y", 9, 0.5, 0, 3},
-        {"min(x, y) + max(x, y)*10", 3, 5, 0, 53},
-        {"min(max(x, y), z)", 1, 5, 3, 3},
-        {"abs(-x) + sqrt(y) + exp(0) + log(e)", 2, 9, 0, 7},
-        {"sin(pi/2) + cos(0) + tan(0) + 4*atan(1)", 0, 0, 0, 2 + PI_D},
-        {"e^x", 2, 0, 0, E_D * E_D},
-        {"((((x))))", 7, 0, 0, 7},
+        {"1+2*3", 0, 0, 0, 7, 1},
+        {"(1+2)*3", 0, 0, 0, 9, 1},
+        {"2^3^2", 0, 0, 0, 512, 1},       /* right-associative: 2^9 */
+        {"(2^3)^2", 0, 0, 0, 64, 1},
+        {"x^y^z", 2, 3, 2, 512, 0},
+        {"-x^2", 3, 0, 0, -9, 1},         /* -(x^2) */
+        {"(-x)^2", 3, 0, 0, 9, 1},
+        {"-2^2", 0, 0, 0, -4, 1},
+        {"2^-x", 1, 0, 0, 0.5, 0},        /* 2^(-x) */
+        {"2^-x^2", 2, 0, 0, 1.0 / 16, 0}, /* 2^(-(x^2)) */
+        {"-x^-2", 2, 0, 0, -0.25, 1},
+        {"x-y-z", 1, 2, 3, -4, 1},        /* left-associative */
+        {"x-y+z", 1, 2, 3, 2, 1},
+        {"x/y/z", 8, 2, 2, 2, 1},
+        {"x/y*z", 8, 2, 2, 8, 1},
+        {"2*x^2", 3, 0, 0, 18, 1},
+        {"x*y^2", 2, 3, 0, 18, 1},
+        {"-x*y", 2, 3, 0, -6, 1},
+        {"x*-y", 2, 3, 0, -6, 1},
+        {"x - -y", 2, 3, 0, 5, 1},
+        {"--x", 2, 0, 0, 2, 1},
+        {"+x", 2, 0, 0, 2, 1},
+        {"- + - x", 2, 0, 0, 2, 1},
+        {"1 - 2 * 3 ^ 2 / 6", 0, 0, 0, -2, 1},
+        {"x\n+\ty\r\n*  z", 1, 2, 3, 7, 1},
+        {"1e-3*1e3", 0, 0, 0, 1, 0},
+        {".5 + 1.5E+1 + 2.", 0, 0, 0, 17.5, 1},
+        {"2^10", 0, 0, 0, 1024, 1},
+        {"x^3 - x^-1", 2, 0, 0, 7.5, 1},
+        {"x^0.5 + x^1.5", 4, 0, 0, 10, 0},
+        {"x^y", 9, 0.5, 0, 3, 0},
+        {"min(x, y) + max(x, y)*10", 3, 5, 0, 53, 1},
+        {"min(max(x, y), z)", 1, 5, 3, 3, 1},
+        {"abs(-x) + sqrt(y) + exp(0) + log(e)", 2, 9, 0, 7, 0},
+        {"sin(pi/2) + cos(0) + tan(0) + 4*atan(1)", 0, 0, 0, 2 + PI_D, 0},
+        {"e^x", 2, 0, 0, E_D * E_D, 0},
+        {"((((x))))", 7, 0, 0, 7, 1},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         tape_t *t = compile_ok(cases[i].text);
         double got = peval(t, cases[i].x, cases[i].y, cases[i].z);
-        if (!(fabs(got - cases[i].want) <= 1e-12 * fmax(1, fabs(cases[i].want))))
-            fail_msg("'%s' at (%g,%g,%g): %.17g, want %.17g", cases[i].text, cases[i].x, cases[i].y,
-                     cases[i].z, got, cases[i].want);
+        if (cases[i].exact ? !(got == cases[i].want)
+                           : !(fabs(got - cases[i].want) <= 1e-12 * fmax(1, fabs(cases[i].want))))
+            fail_msg("'%s' at (%g,%g,%g): %.17g, want %.17g%s", cases[i].text, cases[i].x,
+                     cases[i].y, cases[i].z, got, cases[i].want, cases[i].exact ? " exactly" : "");
+        /* an exact constant expression (no x, y, z) folds to one constant, the
+         * point itself (dag.c keeps points where the double result is exact) */
+        if (cases[i].exact && !strpbrk(cases[i].text, "xyz") &&
+            !(t->n == 1 && t->clauses[0].op == TAPE_CONST &&
+              t->clauses[0].c.lo == cases[i].want && t->clauses[0].c.hi == cases[i].want))
+            fail_msg("'%s' folds to %u clauses, the last [%.17g, %.17g]: want the point %.17g",
+                     cases[i].text, t->n, t->clauses[t->n - 1].c.lo, t->clauses[t->n - 1].c.hi,
+                     cases[i].want);
         tape_free(t);
     }
 }
@@ -458,7 +469,7 @@ static void test_nesting(void **state)
     assert_int_equal(strlen(s), TAPE_MAX_TEXT - 1);
     t = compile_ok(s);
     assert_int_equal(t->n, n); /* x, then n-1 distinct sums */
-    assert_true(fabs(peval(t, 1, 0, 0) - (double)n) < 1e-6);
+    assert_true(peval(t, 1, 0, 0) == (double)n); /* sums of integers below 2^53: exact */
     tape_free(t);
     free(s);
     /* and a text over the limit is refused */
@@ -499,7 +510,7 @@ static void test_names(void **state)
     tape_t *t = NULL;
     assert_int_equal(tape_compiler_compile(tc, "sqrt(R_3d) - 1 + r2*0", &t, &err), 0);
     check_tape(t);
-    assert_true(fabs(peval(t, 1, 2, 2) - 2) < 1e-12);
+    assert_true(peval(t, 1, 2, 2) == 2); /* sqrt(9) - 1 + 0: exact */
     assert_int_equal(count_op(t, TAPE_EXP), 0); /* unused names leave nothing */
     assert_int_equal(count_op(t, TAPE_SQR), 3); /* x^2 y^2 z^2, shared with r2 */
     tape_free(t);

@@ -35,23 +35,6 @@
 #include "../scene/scene.h"
 #include "support/testutil.h"
 
-static const char *const SURFACES[] = {
-    "sphere", "drop", "chubs", "crosscap", "gumdrop", "horned-cube", "mcmullen-k3",
-    "kusner-schmitt",
-};
-#define NSURF (sizeof SURFACES / sizeof SURFACES[0])
-
-static void load(const char *name, scene_t *s)
-{
-    char path[4096];
-    snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), name);
-    ivoct_error_t err;
-    ivoct_error_clear(&err);
-    if (scene_load(path, s, &err)) {
-        char buf[1024];
-        fail_msg("%s", ivoct_error_format(&err, buf, sizeof buf));
-    }
-}
 
 static oct_tree_t *build(const scene_t *s, int depth, unsigned tests)
 {
@@ -431,7 +414,7 @@ static void test_traversal(void **state)
     static const char *const names[] = {"sphere", "gumdrop", "crosscap"};
     for (int k = 0; k < 3; k++) {
         scene_t s;
-        load(names[k], &s);
+        tu_load_scene(names[k], &s);
         printf("%s, depth 5:\n", names[k]);
         oct_tree_t *t = build(&s, 5, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ);
         check_traversal(t, 0, rays, tu_seed(11 + k));
@@ -450,7 +433,7 @@ static void test_degenerate_trees(void **state)
 {
     (void)state;
     scene_t s;
-    load("sphere", &s);
+    tu_load_scene("sphere", &s);
     double o[3] = {3, 2, 1}, d[3] = {-3, -2, -1};
     double n = sqrt(14.0);
     for (int a = 0; a < 3; a++)
@@ -580,9 +563,9 @@ static void test_same_image(void **state)
     printf("%-15s %-13s %6s %6s %6s %7s %7s %9s %9s %9s\n", "", "", "", "octree", "slabs",
            "octree", "slabs", "(none)", "(octree)", "(slabs)");
     size_t worst = 0;
-    for (size_t k = 0; k < NSURF; k++) {
+    for (size_t k = 0; k < TU_N_COMPARISON; k++) {
         scene_t s;
-        load(SURFACES[k], &s);
+        tu_load_scene(tu_comparison_surfaces[k], &s);
         int depth = tu_scale() < 1 && s.depth > 6 ? 6 : s.depth;
         oct_tree_t *tree[NSRC] = {NULL, build(&s, depth, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ),
                                   build(&s, depth, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ |
@@ -595,14 +578,15 @@ static void test_same_image(void **state)
                 render(&s, tree[j], j == SLABS, size, (ray_method_t)m, 0, &img[m][j], &st[j]);
             size_t differ[NSRC] = {0, 0, 0};
             for (int j = OCT; j < NSRC; j++) {
-                differ[j] = compare(SURFACES[k], (ray_method_t)m, how[j], &img[m][j],
+                differ[j] = compare(tu_comparison_surfaces[k], (ray_method_t)m, how[j], &img[m][j],
                                     &img[m][NONE], npix);
                 if (m != RAY_SAMPLING && differ[j] > worst)
                     worst = differ[j];
                 assert_true(st[j].leaves <= st[j].segments);
             }
             assert_int_equal(st[NONE].leaves, 0);
-            printf("%-15s %-13s %6llu %6zu %6zu %7.2f %7.2f %9.1f %9.1f %9.1f\n", SURFACES[k],
+            printf("%-15s %-13s %6llu %6zu %6zu %7.2f %7.2f %9.1f %9.1f %9.1f\n",
+                   tu_comparison_surfaces[k],
                    ray_method_name((ray_method_t)m), (unsigned long long)st[NONE].hits,
                    differ[OCT], differ[SLABS], (double)st[OCT].leaves / (double)npix,
                    (double)st[SLABS].leaves / (double)npix,
@@ -622,7 +606,7 @@ static void test_same_image(void **state)
                         if (smp->hit[i] && (!ce->hit[i] || ce->t[i] > smp->t[i] * (1 + 1e-9)))
                             fail_msg("%s pixel %zu: sampling (%s) hits at %.17g, %s (%s) %s "
                                      "%.17g",
-                                     SURFACES[k], i, how[q], smp->t[i],
+                                     tu_comparison_surfaces[k], i, how[q], smp->t[i],
                                      ray_method_name((ray_method_t)c), how[j],
                                      ce->hit[i] ? "only at" : "misses", ce->t[i]);
                 }
@@ -643,7 +627,7 @@ static void test_threads(void **state)
     static const char *const names[] = {"chubs", "crosscap"};
     for (int k = 0; k < 2; k++) {
         scene_t s;
-        load(names[k], &s);
+        tu_load_scene(names[k], &s);
         oct_tree_t *t = build(&s, s.depth, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE);
         for (int m = 0; m < RAY_METHOD_COUNT; m++) {
             ray_image_t a, b;

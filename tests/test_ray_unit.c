@@ -246,15 +246,6 @@ static void test_root_edges(void **state)
 
 /* ---- scenes: sources, threads, writers ---------------------------------------------------- */
 
-static void load(const char *name, scene_t *s)
-{
-    char path[4096];
-    snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), name);
-    ivoct_error_t err;
-    if (scene_load(path, s, &err))
-        fail_msg("%s: %s", path, err.msg);
-}
-
 /* A source that cuts the box segment into k pieces (front to back), as an
  * octree traversal would hand over leaves. */
 typedef struct split_ctx {
@@ -309,7 +300,7 @@ static void test_source_seam(void **state)
 {
     (void)state;
     scene_t s;
-    load("gumdrop", &s);
+    tu_load_scene("gumdrop", &s);
     ray_box_source_t bs;
     ray_source_t one = ray_box_source(&bs, s.box);
     split_ctx_t sc;
@@ -339,7 +330,7 @@ static void test_threads_identical(void **state)
 {
     (void)state;
     scene_t s;
-    load("chubs", &s);
+    tu_load_scene("chubs", &s);
     ray_box_source_t bs;
     ray_source_t src = ray_box_source(&bs, s.box);
     for (int m = 0; m < RAY_METHOD_COUNT; m++) {
@@ -448,21 +439,11 @@ static unsigned char *array_bytes(const char *xml, const char *name, size_t *n)
     return out;
 }
 
-static char *slurp(FILE *f)
-{
-    long n = ftell(f);
-    rewind(f);
-    char *buf = malloc((size_t)n + 1);
-    assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
-    buf[n] = '\0';
-    return buf;
-}
-
 static void test_writers(void **state)
 {
     (void)state;
     scene_t s;
-    load("sphere", &s);
+    tu_load_scene("sphere", &s);
     ray_box_source_t bs;
     ray_source_t src = ray_box_source(&bs, s.box);
     ray_image_t img;
@@ -477,7 +458,8 @@ static void test_writers(void **state)
     FILE *f = tmpfile();
     assert_non_null(f);
     assert_int_equal(ray_write_vti(f, &img, &cam, "newton-ah", &err), 0);
-    char *xml = slurp(f);
+    rewind(f);
+    char *xml = (char *)tu_read_stream(f, NULL);
     fclose(f);
     assert_non_null(strstr(xml, "<VTKFile type=\"ImageData\""));
     assert_non_null(strstr(xml, "WholeExtent=\"0 6 0 4 0 0\""));
@@ -521,7 +503,8 @@ static void test_writers(void **state)
     f = tmpfile();
     assert_non_null(f);
     assert_int_equal(ray_write_png(f, &img, &err), 0);
-    char *png = slurp(f);
+    rewind(f);
+    char *png = (char *)tu_read_stream(f, NULL);
     fclose(f);
     assert_memory_equal(png, "\x89PNG\r\n\x1a\n", 8);
     assert_memory_equal(png + 12, "IHDR", 4);

@@ -51,6 +51,7 @@
 #include "../scene/scene.h"
 #include "support/coverage.h"
 #include "support/mpfi_tape.h"
+#include "support/stab_cases.h"
 #include "support/testutil.h"
 
 /* The grid depth of most cases: 5 (4 instrumented). */
@@ -138,30 +139,18 @@ static void check_case(const tape_t *t, const double box[6], const char *name, i
 
 /* ---- translated and scaled ------------------------------------------------------- */
 
-static const char *const SPHERE = "u^2 + v^2 + w^2 - 1";
-static const char *const GUMDROP =
-    "4*(u^4 + (v^2 + w^2)^2) + 17*u^2*(v^2 + w^2) - 20*(u^2 + v^2 + w^2) + 17";
-
 static void test_translated(void **state)
 {
     (void)state;
-    static const char *const offs[] = {"1e3", "1e4", "1e5", "1e6", "1e7", "1e8"};
     for (int surf = 0; surf < 2; surf++)
         for (int diag = 0; diag < 2; diag++)
-            for (size_t k = 0; k < sizeof offs / sizeof *offs; k++) {
-                double c = strtod(offs[k], NULL), r = surf ? 2 : 1.05;
-                char u[32], v[32], w[32], name[96];
-                snprintf(u, sizeof u, "x - %s", offs[k]);
-                snprintf(v, sizeof v, diag ? "y - %s" : "y", offs[k]);
-                snprintf(w, sizeof w, diag ? "z - %s" : "z", offs[k]);
-                tape_t *t = tu_compile_uvw(surf ? GUMDROP : SPHERE, u, v, w);
-                double cy = diag ? c : 0;
-                double box[6] = {c - r, c + r, cy - r, cy + r, cy - r, cy + r};
-                snprintf(name, sizeof name, "translated %s +%s%s", surf ? "gumdrop" : "sphere",
-                         offs[k], diag ? "(1,1,1)" : "x");
+            for (size_t k = 0; k < STAB_N_OFFSETS; k++) {
+                stab_case_t sc;
+                stab_translated(surf, k, diag, &sc);
+                tape_t *t = tu_compile_uvw(sc.f, sc.u, sc.v, sc.w);
                 /* the empty-cell check (an MPFI evaluation per empty cell) on the
                  * sphere only: the gumdrop's many cells would dominate the suite */
-                check_case(t, box, name, base_depth(),
+                check_case(t, sc.box, sc.name, base_depth(),
                            COV_CFG_LIPSCHITZ | COV_CFG_REFINE | (surf ? COV_NO_EMPTY : 0), NULL, 0,
                            1);
                 tape_free(t);
@@ -171,19 +160,12 @@ static void test_translated(void **state)
 static void test_scaled(void **state)
 {
     (void)state;
-    static const char *const scales[] = {"1e-8", "1e-6", "1e-4", "1e-2", "1e2", "1e4", "1e6", "1e8"};
-    static const char *const inverse[] = {"1e8", "1e6", "1e4", "1e2", "1e-2", "1e-4", "1e-6", "1e-8"};
     for (int surf = 0; surf < 2; surf++)
-        for (size_t k = 0; k < sizeof scales / sizeof *scales; k++) {
-            double s = strtod(scales[k], NULL), r = (surf ? 2 : 1.05) * s;
-            char u[32], v[32], w[32], name[96];
-            snprintf(u, sizeof u, "x*%s", inverse[k]);
-            snprintf(v, sizeof v, "y*%s", inverse[k]);
-            snprintf(w, sizeof w, "z*%s", inverse[k]);
-            tape_t *t = tu_compile_uvw(surf ? GUMDROP : SPHERE, u, v, w);
-            double box[6] = {-r, r, -r, r, -r, r};
-            snprintf(name, sizeof name, "scaled %s x%s", surf ? "gumdrop" : "sphere", scales[k]);
-            check_case(t, box, name, base_depth(),
+        for (size_t k = 0; k < STAB_N_SCALES; k++) {
+            stab_case_t sc;
+            stab_scaled(surf, k, &sc);
+            tape_t *t = tu_compile_uvw(sc.f, sc.u, sc.v, sc.w);
+            check_case(t, sc.box, sc.name, base_depth(),
                        COV_CFG_LIPSCHITZ | COV_CFG_REFINE | (surf ? COV_NO_EMPTY : 0), NULL, 0, 1);
             tape_free(t);
         }
@@ -230,10 +212,10 @@ static int check_bracket(const cov_grid_t *g, const cov_cover_t *cv, const doubl
 static void test_thin_shells(void **state)
 {
     (void)state;
-    static const char *const hs[] = {"1e-3", "1e-6", "1e-9", "1e-12"};
+    const char *const *hs = stab_shell_widths;
     const double box[6] = {-1.1, 1.1, -1.1, 1.1, -1.1, 1.1};
     int depth = base_depth();
-    for (size_t k = 0; k < sizeof hs / sizeof *hs; k++) {
+    for (size_t k = 0; k < STAB_N_SHELLS; k++) {
         double t0 = tu_now();
         double h = strtod(hs[k], NULL);
         char f[96], name[64];
@@ -309,8 +291,8 @@ static void test_thin_shells(void **state)
 static void test_high_degree(void **state)
 {
     (void)state;
-    static const char *const names[] = {"barth-sextic", "tangle-cube", "clebsch-cubic"};
-    for (size_t k = 0; k < 3; k++) {
+    const char *const *names = stab_high_degree_scenes;
+    for (size_t k = 0; k < STAB_N_HIGH_DEGREE; k++) {
         scene_t s;
         tu_load_scene(names[k], &s);
         /* one level deeper than test_octree_coverage, the whole chain (with and

@@ -59,6 +59,7 @@
 #include "../ray/ray.h"
 #include "../scene/scene.h"
 #include "support/ray_reference.h"
+#include "support/stab_cases.h"
 #include "support/testutil.h"
 
 static const ray_method_t METHODS[] = {RAY_MITCHELL, RAY_NEWTON, RAY_LIPSCHITZ};
@@ -301,10 +302,6 @@ static void check_camera(const ray_case_t *rc)
     rref_free(c);
 }
 
-static const char *const SPHERE = "u^2 + v^2 + w^2 - 1";
-static const char *const GUMDROP =
-    "4*(u^4 + (v^2 + w^2)^2) + 17*u^2*(v^2 + w^2) - 20*(u^2 + v^2 + w^2) + 17";
-
 static void centred_case(ray_case_t *rc, const double c[3], double r)
 {
     for (int a = 0; a < 3; a++) {
@@ -318,21 +315,14 @@ static void centred_case(ray_case_t *rc, const double c[3], double r)
 static void test_translated(void **state)
 {
     (void)state;
-    static const char *const offs[] = {"1e3", "1e4", "1e5", "1e6", "1e7", "1e8"};
     for (int surf = 0; surf < 2; surf++)
         for (int diag = 0; diag < 2; diag++)
-            for (size_t k = 0; k < sizeof offs / sizeof *offs; k++) {
-                double off = strtod(offs[k], NULL);
-                char u[32], v[32], w[32], name[96];
-                snprintf(u, sizeof u, "x - %s", offs[k]);
-                snprintf(v, sizeof v, diag ? "y - %s" : "y", offs[k]);
-                snprintf(w, sizeof w, diag ? "z - %s" : "z", offs[k]);
-                tape_t *t = tu_compile_uvw(surf ? GUMDROP : SPHERE, u, v, w);
-                snprintf(name, sizeof name, "translated %s +%s%s", surf ? "gumdrop" : "sphere",
-                         offs[k], diag ? "(1,1,1)" : "x");
-                ray_case_t rc = {.name = name, .tape = t, .oracle = t, .depth = 6};
-                double c[3] = {off, diag ? off : 0, diag ? off : 0};
-                centred_case(&rc, c, surf ? 2 : 1.05);
+            for (size_t k = 0; k < STAB_N_OFFSETS; k++) {
+                stab_case_t sc;
+                stab_translated(surf, k, diag, &sc);
+                tape_t *t = tu_compile_uvw(sc.f, sc.u, sc.v, sc.w);
+                ray_case_t rc = {.name = sc.name, .tape = t, .oracle = t, .depth = 6};
+                centred_case(&rc, sc.centre, sc.half);
                 check_camera(&rc);
                 tape_free(t);
             }
@@ -341,20 +331,14 @@ static void test_translated(void **state)
 static void test_scaled(void **state)
 {
     (void)state;
-    static const char *const scales[] = {"1e-8", "1e-6", "1e-4", "1e-2", "1e2", "1e4", "1e6", "1e8"};
-    static const char *const inverse[] = {"1e8", "1e6", "1e4", "1e2", "1e-2", "1e-4", "1e-6", "1e-8"};
     for (int surf = 0; surf < 2; surf++)
-        for (size_t k = 0; k < sizeof scales / sizeof *scales; k++) {
-            double s = strtod(scales[k], NULL);
-            char u[32], v[32], w[32], name[96];
-            snprintf(u, sizeof u, "x*%s", inverse[k]);
-            snprintf(v, sizeof v, "y*%s", inverse[k]);
-            snprintf(w, sizeof w, "z*%s", inverse[k]);
-            tape_t *t = tu_compile_uvw(surf ? GUMDROP : SPHERE, u, v, w);
-            snprintf(name, sizeof name, "scaled %s x%s", surf ? "gumdrop" : "sphere", scales[k]);
-            ray_case_t rc = {.name = name, .tape = t, .oracle = t, .depth = 6, .length = s};
-            const double c[3] = {0, 0, 0};
-            centred_case(&rc, c, (surf ? 2 : 1.05) * s);
+        for (size_t k = 0; k < STAB_N_SCALES; k++) {
+            stab_case_t sc;
+            stab_scaled(surf, k, &sc);
+            tape_t *t = tu_compile_uvw(sc.f, sc.u, sc.v, sc.w);
+            ray_case_t rc = {.name = sc.name, .tape = t, .oracle = t, .depth = 6,
+                             .length = sc.scale};
+            centred_case(&rc, sc.centre, sc.half);
             check_camera(&rc);
             tape_free(t);
         }
@@ -363,8 +347,8 @@ static void test_scaled(void **state)
 static void test_thin_shells(void **state)
 {
     (void)state;
-    static const char *const hs[] = {"1e-3", "1e-6", "1e-9", "1e-12"};
-    for (size_t k = 0; k < 4; k++) {
+    const char *const *hs = stab_shell_widths;
+    for (size_t k = 0; k < STAB_N_SHELLS; k++) {
         char f[96], g[96], name[64];
         snprintf(f, sizeof f, "abs(sqrt(x^2 + y^2 + z^2) - 1) - %s", hs[k]);
         /* from outside, the first root is on the outer face, radius 1 + h */
@@ -395,9 +379,8 @@ static void scene_case(const char *scene)
 static void test_high_degree(void **state)
 {
     (void)state;
-    scene_case("barth-sextic");
-    scene_case("tangle-cube");
-    scene_case("clebsch-cubic");
+    for (size_t k = 0; k < STAB_N_HIGH_DEGREE; k++)
+        scene_case(stab_high_degree_scenes[k]);
 }
 
 static void test_undefined(void **state)
@@ -669,13 +652,8 @@ static void test_singular(void **state)
     long failures = 0;
     for (size_t i = 0; i < n; i++) {
         double t_start = tu_now();
-        char path[4096];
-        snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), rays[i].scene);
         scene_t s;
-        ivoct_error_t err;
-        ivoct_error_clear(&err);
-        if (scene_load(path, &s, &err))
-            fail_msg("%s: %s", path, err.msg);
+        tu_load_scene(rays[i].scene, &s);
         oct_tree_t *tree = build(s.tape, s.box, 7);
         tape_ws_t *ws = tape_ws_new(s.tape->n);
         double t0, t1;

@@ -309,37 +309,6 @@ int oracle_contained(mpfi_t v, iv_t d)
     return ok;
 }
 
-static double lerp(double a, double b, double u)
-{
-    double v = a + (b - a) * u;
-    return v < a ? a : v > b ? b : v;
-}
-
-static iv_box_t random_box(const double *box, uint64_t *rng)
-{
-    iv_t r[3];
-    double frac = exp2(-30.0 * tu_uniform(rng));
-    int point = tu_next(rng) % 16 == 0;
-    for (int k = 0; k < 3; k++) {
-        double lo = box[2 * k], hi = box[2 * k + 1];
-        double w = (hi - lo) * frac;
-        double a = lerp(lo, hi - w, tu_uniform(rng));
-        double e = point ? a : fmin(a + w, hi);
-        r[k] = iv_make(a, e < a ? a : e);
-    }
-    iv_box_t b = {r[0], r[1], r[2]};
-    return b;
-}
-
-static double pick(iv_t r, uint64_t *rng)
-{
-    switch (tu_next(rng) % 4) {
-    case 0: return r.lo;
-    case 1: return r.hi;
-    default: return lerp(r.lo, r.hi, tu_uniform(rng));
-    }
-}
-
 int oracle_check_tape(const tape_t *t, const double box[6], long nbox, int points_per_box,
                       uint64_t *rng, oracle_stats_t *st)
 {
@@ -356,13 +325,13 @@ int oracle_check_tape(const tape_t *t, const double box[6], long nbox, int point
         iv_t F[BATCH];
         iv_grad_t G[BATCH];
         for (int i = 0; i < BATCH; i++)
-            boxes[i] = random_box(box, rng);
+            boxes[i] = tu_random_subbox(box, rng);
         tape_eval_interval(t, ws, BATCH, boxes, F);
         tape_eval_grad(t, ws, BATCH, boxes, G);
         for (int i = 0; i < BATCH && !fail; i++) {
             for (int j = 0; j < points_per_box && !fail; j++) {
-                double p[3] = {pick(boxes[i].x, rng), pick(boxes[i].y, rng),
-                               pick(boxes[i].z, rng)};
+                double p[3] = {tu_pick(boxes[i].x, rng), tu_pick(boxes[i].y, rng),
+                               tu_pick(boxes[i].z, rng)};
                 oracle_const_t which = (j & 1) ? ORACLE_CONST_HI : ORACLE_CONST_LO;
                 if (oracle_eval(t, p, which, v, NULL) != 0) {
                     st->skipped++;

@@ -2,6 +2,7 @@
 #include "testutil.h"
 
 #include <glob.h>
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -22,6 +23,37 @@ int tu_sanitizer_build(void)
 {
     const char *s = getenv("IVOCT_ASAN");
     return s && *s && strcmp(s, "0") != 0;
+}
+
+double tu_lerp(double a, double b, double u)
+{
+    double v = a + (b - a) * u;
+    return v < a ? a : v > b ? b : v;
+}
+
+iv_box_t tu_random_subbox(const double box[6], uint64_t *rng)
+{
+    iv_t r[3];
+    double frac = exp2(-30.0 * tu_uniform(rng));
+    int point = tu_next(rng) % 16 == 0;
+    for (int k = 0; k < 3; k++) {
+        double lo = box[2 * k], hi = box[2 * k + 1];
+        double w = (hi - lo) * frac;
+        double a = tu_lerp(lo, hi - w, tu_uniform(rng));
+        double e = point ? a : fmin(a + w, hi);
+        r[k] = iv_make(a, e < a ? a : e);
+    }
+    iv_box_t b = {r[0], r[1], r[2]};
+    return b;
+}
+
+double tu_pick(iv_t r, uint64_t *rng)
+{
+    switch (tu_next(rng) % 4) {
+    case 0: return r.lo;
+    case 1: return r.hi;
+    default: return tu_lerp(r.lo, r.hi, tu_uniform(rng));
+    }
 }
 
 double tu_scale(void)
@@ -50,15 +82,23 @@ int tu_scene_files(char ***paths)
     glob_t g;
     *paths = NULL;
     if (glob(pattern, 0, NULL, &g) != 0)
-        return 0;
+        fail_msg("%s: no scene files", pattern);
     char **list = malloc(g.gl_pathc * sizeof *list);
     for (size_t i = 0; i < g.gl_pathc; i++)
         list[i] = strdup(g.gl_pathv[i]);
     int n = (int)g.gl_pathc;
     globfree(&g);
     *paths = list;
+    if (n < TU_N_SCENE_FILES)
+        fail_msg("%s: %d scene files, expected at least %d (one per surface of surfaces.md)",
+                 pattern, n, TU_N_SCENE_FILES);
     return n;
 }
+
+const char *const tu_comparison_surfaces[TU_N_COMPARISON] = {
+    "sphere", "drop", "chubs", "crosscap", "gumdrop", "horned-cube", "mcmullen-k3",
+    "kusner-schmitt",
+};
 
 void tu_free_list(char **list, int n)
 {
@@ -97,12 +137,84 @@ void tu_result_row(const char *suite, const char *name, const char *outcome, dou
 void tu_load_scene(const char *name, scene_t *s)
 {
     char path[4096];
-    snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), name);
+    if (strchr(name, '/'))
+        snprintf(path, sizeof path, "%s", name);
+    else
+        snprintf(path, sizeof path, "%s/scenes/%s.ini", tu_source_dir(), name);
     ivoct_error_t err;
     ivoct_error_clear(&err);
-    if (scene_load(path, s, &err))
-        fail_msg("%s: %s", path, err.msg);
+    if (scene_load(path, s, &err)) {
+        char buf[1024];
+        fail_msg("cannot load %s: %s", path, ivoct_error_format(&err, buf, sizeof buf));
+    }
 }
+
+unsigned char *tu_read_stream(FILE *f, size_t *n)
+{
+    size_t cap = 1 << 16, len = 0, got;
+    unsigned char *p = malloc(cap);
+    assert_non_null(p);
+    while ((got = fread(p + len, 1, cap - len - 1, f)) > 0) {
+        len += got;
+        if (len + 1 == cap) {
+            cap *= 2;
+            p = realloc(p, cap);
+            assert_non_null(p);
+        }
+    }
+    if (ferror(f))
+        fail_msg("read error");
+    p[len] = '\0';
+    if (n)
+        *n = len;
+    return p;
+}
+
+unsigned char *tu_read_file(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        fail_msg("cannot open %s", path);
+    unsigned char *p = tu_read_stream(f, n);
+    fclose(f);
+    return p;
+}
+
+const char *const tu_op_exprs[] = {
+    /* linear */
+    "x + y", "x - y", "-x + 3*y - z/4", "0.1*x - y + 1e-3",
+    /* products */
+    "x*y", "x*y*z", "(x + y)*(x - y)", "(x + 0.1)*(y - 0.3)*(z + 0.7)", "x^2", "(x - y)^2",
+    "(x*y - z)^2", "(x^2 + y^2 + z^2 - 1)^2",
+    /* integer powers */
+    "x^3", "x^4", "x^5", "(x - 0.5)^7", "(x*y)^6", "x^-1", "x^-2", "x^-3", "(x + y)^-4",
+    /* real powers */
+    "x^0.5", "x^1.5", "x^2.5", "x^-0.5", "x^0.3", "(x*x + y)^0.75", "(1 + x^2)^-1.5",
+    /* division */
+    "x/y", "1/x", "y/(x + 0.5)", "(x + y)/(1 + x^2 + y^2)", "x/(y*z)",
+    /* sqrt exp log */
+    "sqrt(x)", "sqrt(x^2 + y^2 + z^2)", "sqrt(x*y + z)", "exp(x)", "exp(x*y)",
+    "exp(-(x^2 + y^2))", "log(x)", "log(x^2 + y*z)", "log(1 + x^2)",
+    /* trigonometric */
+    "sin(x)", "cos(x)", "tan(x)", "atan(x)", "sin(x*y)", "cos(3*x + y)", "tan(x*y - z)",
+    "atan(x*y - z)", "atan(1/x)",
+    /* abs min max */
+    "abs(x)", "abs(x - y)", "abs(x*y) - z", "min(x, y)", "max(x, y)", "min(x*y, z)",
+    "max(x^2, y) - z", "min(max(x, y), z)", "max(abs(x) - 1, y*z)",
+    /* composites */
+    "sin(3*x)*cos(2*y) + z", "exp(x*y) - log(1 + z^2)", "abs(x - y) - min(x*z, y)",
+    "max(x, y*z)/(2 + sin(x))", "x^3 - 3*x*y^2 + z", "atan(x/y) + sqrt(abs(z))",
+    "1/(x^2 + y^2 + 0.01) - exp(z)", "min(x^2 + y^2 - 1, (x - 1)^2 + z^2 - 0.5)",
+    "log(exp(x) + exp(y))", "tan(atan(x) / 2)", "pi*x - e*y", "(x*y*z)^(1/3)", "2^x",
+};
+
+const size_t tu_n_op_exprs = sizeof tu_op_exprs / sizeof *tu_op_exprs;
+
+const double tu_op_boxes[TU_N_OP_BOXES][6] = {
+    {-2, 3, -1.5, 2.5, -3, 1},
+    {-1e-3, 2e-3, -2e-3, 1e-3, -1e-3, 1e-3},
+    {-1e3, 2e3, -3e3, 1e3, -1e3, 1e3},
+};
 
 tape_t *tu_compile_uvw(const char *f, const char *u, const char *v, const char *w)
 {

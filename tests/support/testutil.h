@@ -1,10 +1,15 @@
-/* Helpers shared by the tests: a seeded PRNG, the scene directory, scene and
- * expression loading that fails the running cmocka test on error. */
+/* Helpers and data shared by the tests: a seeded PRNG and random sub-boxes,
+ * the scene directory and the lists of scenes the tests use, scene, expression
+ * and file loading that fail the running cmocka test on error, the list of
+ * expressions that exercises every operation of the tape language. */
 #ifndef IVOCT_TEST_UTIL_H
 #define IVOCT_TEST_UTIL_H
 
+#include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
+#include "../../expr/interval.h"
 #include "../../expr/tape.h"
 #include "../../scene/scene.h"
 
@@ -23,6 +28,17 @@ static inline double tu_uniform(uint64_t *s)
     return (double)(tu_next(s) >> 11) * 0x1p-53;
 }
 
+/* a + (b - a) u, clamped to [a, b] */
+double tu_lerp(double a, double b, double u);
+
+/* A random sub-box of box {xmin xmax ymin ymax zmin zmax}: edges from the
+ * whole box's down to 2^-30 of it (log-uniform), at a uniform place; one in 16
+ * is a point box. */
+iv_box_t tu_random_subbox(const double box[6], uint64_t *rng);
+
+/* A point of r: an end (one in four each) or a uniform interior point. */
+double tu_pick(iv_t r, uint64_t *rng);
+
 /* The seed: IVOCT_SEED from the environment, else the given default. */
 uint64_t tu_seed(uint64_t fallback);
 
@@ -37,12 +53,38 @@ double tu_scale(void);
 /* The source tree: IVOCT_SOURCE_DIR, else ".". */
 const char *tu_source_dir(void);
 
-/* Paths of the scene files (scenes/NAME.ini), sorted; returns the count, *paths malloc'd (free with tu_free_list). */
+/* How many scene files scenes/ holds: one per surface of surfaces.md. */
+#define TU_N_SCENE_FILES 19
+
+/* Paths of the scene files (scenes/NAME.ini), sorted; returns the count, *paths
+ * malloc'd (free with tu_free_list).  Fails the current test when there are
+ * fewer than TU_N_SCENE_FILES (a scene file lost). */
 int tu_scene_files(char ***paths);
 void tu_free_list(char **list, int n);
 
-/* scenes/NAME.ini into *s (scene_free it); fails the current test on error. */
+/* The eight comparison surfaces of surfaces.md (scenes/NAME.ini; all
+ * polynomials, degree 2 to 8), which the ray tests render with every method. */
+#define TU_N_COMPARISON 8
+extern const char *const tu_comparison_surfaces[TU_N_COMPARISON];
+
+/* A scene into *s (scene_free it): NAME is scenes/NAME.ini, a NAME with a '/'
+ * is the path itself.  Fails the current test on error, with the position. */
 void tu_load_scene(const char *name, scene_t *s);
+
+/* The whole file, NUL-terminated (not counted in *n; n may be NULL), malloc'd;
+ * fails the current test when it cannot be read.  tu_read_stream: the same
+ * for what is left of an open stream (rewind it first for the whole). */
+unsigned char *tu_read_file(const char *path, size_t *n);
+unsigned char *tu_read_stream(FILE *f, size_t *n);
+
+/* Every operation of the tape language, alone and composed (the list the
+ * evaluators' tests run through: test_eval_ray_mpfi, test_ilie_mpfi), and
+ * boxes for them: a general one, a small one around 0 (poles, domain edges), a
+ * big one (overflow). */
+extern const char *const tu_op_exprs[];
+extern const size_t tu_n_op_exprs;
+#define TU_N_OP_BOXES 3
+extern const double tu_op_boxes[TU_N_OP_BOXES][6];
 
 /* The tape of expression f, with u, v, w defined as the given expressions
  * (e.g. u = "x - 1e8" translates a scene written in u, v, w); tu_compile(f) is

@@ -1,4 +1,4 @@
-/* The octree does not depend on the number of threads (DESIGN.md §3).
+/* The octree does not depend on the number of threads (docs/DESIGN.md §3).
  *
  * Several scenes (among them the CSG union, whose tapes are pruned per cell,
  * and the thin shell, pruned through abs), with the scene's tests and with the

@@ -22,7 +22,7 @@
  *   diagonal of a max-depth cell (up to rounding);
  *   threads is what was asked for; peak_bytes covers the tree's storage.
  *
- * Tape pruning (issue 3: "~300 clauses at the root to about 10 by depth 4"):
+ * Tape pruning (libfive, docs/DESIGN.md §5: "~300 clauses at the root to about 10 by depth 4"):
  * on scenes/csg-64-spheres.ini the mean tape length of the cells split at
  * depth 4 must be below 1/5 of the root's.  The per-depth means are printed. */
 #include <math.h>

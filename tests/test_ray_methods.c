@@ -1,4 +1,4 @@
-/* The seven ray methods on the eight comparison surfaces of surfaces.md (the
+/* The seven ray methods on the eight comparison surfaces of docs/surfaces.md (the
  * scene files in scenes/, each scene's camera, 64x64), with the box source
  * (--no-octree) and with the octree of the scene's [octree] settings, against
  * the MPFR first-root reference (tests/support/ray_reference.c, judged by

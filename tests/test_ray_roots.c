@@ -1,5 +1,5 @@
 /* Every certified ray method against an independent high-precision oracle, on
- * the eight comparison surfaces of surfaces.md (all polynomials: degree 2 to
+ * the eight comparison surfaces of docs/surfaces.md (all polynomials: degree 2 to
  * 8; each of them must be checked, none skipped), pixel by pixel at 64x64
  * with each scene's camera and the box source (--no-octree).
  *

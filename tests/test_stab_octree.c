@@ -1,4 +1,4 @@
-/* Numerical stability stress suite, octree half (issue 7, item 5): every case
+/* Numerical stability stress suite, octree half: every case
  * asserts, against the MPFI oracle, that the octree misses no cell of the
  * surface and that the interval evaluator's enclosures contain the true value.
  * The ray half is tests/test_stab_rays.c; the outcome table is

@@ -1,4 +1,4 @@
-/* Numerical stability stress suite, ray half (issue 7, item 5): ray hits against
+/* Numerical stability stress suite, ray half: ray hits against
  * the MPFR oracle (tests/support/ray_reference.c) on the stress cases of
  * tests/test_stab_octree.c, for mitchell, newton and lipschitz, with the box
  * source (--no-octree) and the octree source.

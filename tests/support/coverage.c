@@ -506,7 +506,7 @@ void cov_check_all(const tape_t *tape, const double box[6], const char *name, in
     cov_grid_init(&g, tape, box, depth);
     double t_grid = omp_get_wtime() - t0, t_build = 0, t_sign = 0, t_empty = 0;
 
-    /* the chain of the issue (interval; interval, lipschitz), then the whole
+    /* the scenes' chains (interval; interval, lipschitz), then the whole
      * chain with ILIE, without and with early leaves (refine: 2% of the box's
      * largest edge) */
     static const unsigned configs[4] = {OCT_TEST_INTERVAL, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ,

@@ -53,7 +53,7 @@ double tu_scale(void);
 /* The source tree: IVOCT_SOURCE_DIR, else ".". */
 const char *tu_source_dir(void);
 
-/* How many scene files scenes/ holds: one per surface of surfaces.md. */
+/* How many scene files scenes/ holds: one per surface of docs/surfaces.md. */
 #define TU_N_SCENE_FILES 19
 
 /* Paths of the scene files (scenes/NAME.ini), sorted; returns the count, *paths
@@ -62,7 +62,7 @@ const char *tu_source_dir(void);
 int tu_scene_files(char ***paths);
 void tu_free_list(char **list, int n);
 
-/* The eight comparison surfaces of surfaces.md (scenes/NAME.ini; all
+/* The eight comparison surfaces of docs/surfaces.md (scenes/NAME.ini; all
  * polynomials, degree 2 to 8), which the ray tests render with every method. */
 #define TU_N_COMPARISON 8
 extern const char *const tu_comparison_surfaces[TU_N_COMPARISON];

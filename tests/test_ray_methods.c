@@ -53,7 +53,7 @@ static void render(const scene_t *s, int size, ray_method_t m, ray_image_t *img,
 {
     ivoct_error_t err;
     ray_camera_t cam;
-    assert_int_equal(ray_camera_init(&cam, s->eye, s->target, s->up, s->fov, size, size, &err),
+    assert_int_equal(ray_camera_init(&cam, s->camera.eye, s->camera.target, s->camera.up, s->camera.fov, size, size, &err),
                      0);
     assert_int_equal(ray_image_alloc(img, size, size, &err), 0);
     ray_box_source_t bs;

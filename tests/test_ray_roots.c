@@ -81,7 +81,7 @@ static void test_roots_against_oracle(void **state)
         }
         ray_camera_t cam;
         assert_int_equal(
-            ray_camera_init(&cam, s.eye, s.target, s.up, s.fov, size, size, &err), 0);
+            ray_camera_init(&cam, s.camera.eye, s.camera.target, s.camera.up, s.camera.fov, size, size, &err), 0);
         tape_ws_t *ws = tape_ws_new(s.tape->n);
 
         /* the oracle for every pixel */

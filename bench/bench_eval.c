@@ -111,7 +111,7 @@ int main(int argc, char **argv)
         double pt = measure(b, run_point, seconds);
         double iv = measure(b, run_interval, seconds);
         double gr = measure(b, run_grad, seconds);
-        printf("%-26s %7u %9.3f %9.3f %9.3f %8.2f %8.2f\n", s.name, s.tape->n, pt, iv, gr,
+        printf("%-26s %7u %9.3f %9.3f %9.3f %8.2f %8.2f\n", s.source.name, s.tape->n, pt, iv, gr,
                iv / pt, gr / iv);
         tape_ws_free(b->ws);
         scene_free(&s);

@@ -133,7 +133,7 @@ static int run(const scene_t *s, const char *key, tape_ws_t *ws, unsigned tests,
         ivoct_error_t err;
         ivoct_error_clear(&err);
         if (oct_build(s->tape, s->box, &p, &t, &err)) {
-            fprintf(stderr, "ivoct_build_sweep: %s: depth %d: %s\n", s->name, depth, err.msg);
+            fprintf(stderr, "ivoct_build_sweep: %s: depth %d: %s\n", s->source.name, depth, err.msg);
             oct_free(best);
             return -1;
         }
@@ -148,7 +148,7 @@ static int run(const scene_t *s, const char *key, tape_ws_t *ws, unsigned tests,
     classify_leaves(s->tape, ws, best, sample, extra, &e);
     /* the chain as interval+lipschitz+ilie: no commas inside a CSV field */
     char text[64], chain[64];
-    scene_tests_string(tests, text, sizeof text);
+    oct_tests_format(tests, text, sizeof text);
     size_t o = 0;
     for (const char *c = text; *c && o + 1 < sizeof chain; c++)
         if (*c != ' ')
@@ -222,7 +222,7 @@ int main(int argc, char **argv)
     for (char *save = NULL, *c = strtok_r(list, ";", &save); c && !rc;
          c = strtok_r(NULL, ";", &save)) {
         unsigned tests;
-        if (scene_parse_tests(c, &tests, &err)) {
+        if (oct_tests_parse(c, &tests, &err)) {
             fprintf(stderr, "ivoct_build_sweep: --chains: %s\n", err.msg);
             rc = 2;
             break;

@@ -87,7 +87,7 @@ int main(int argc, char **argv)
         return 2;
     }
     if (depth < 0)
-        depth = s.depth;
+        depth = s.octree.depth;
     if (depth < 1 || depth > 11) {
         fprintf(stderr, "ivoct_dense: depth %d out of 1..11\n", depth);
         return 2;
@@ -191,7 +191,7 @@ int main(int argc, char **argv)
 
     printf("{\"scene\": \"%s\", \"depth\": %d, \"threads\": %d, \"tape_clauses\": %u, "
            "\"points\": %.0f, \"dense_time_s\": %.6f, \"dense_cells\": %llu",
-           s.name, depth, threads, s.tape->n, points, dense_time, (unsigned long long)nkept);
+           s.source.name, depth, threads, s.tape->n, points, dense_time, (unsigned long long)nkept);
 
     if (compare) {
         oct_tree_t *t;
@@ -268,7 +268,7 @@ int main(int argc, char **argv)
         printf(", \"octree_tests\": \"%s\", \"octree_cells\": %llu, "
                "\"both\": %llu, \"octree_only\": %llu, \"octree_only_surface\": %llu, "
                "\"dense_only\": %llu",
-               scene_tests_string(t->tests, tbuf, sizeof tbuf),
+               oct_tests_format(t->tests, tbuf, sizeof tbuf),
                (unsigned long long)octree_cells, (unsigned long long)both,
                (unsigned long long)octree_only, (unsigned long long)octree_only_surface,
                (unsigned long long)dense_only);

@@ -305,9 +305,10 @@ int main(int argc, char **argv)
             status = 1;
             continue;
         }
-        int W = size_given || quick ? width : s.width, H = size_given || quick ? height : s.height;
+        int W = size_given || quick ? width : s.camera.width,
+            H = size_given || quick ? height : s.camera.height;
         ray_camera_t cam;
-        if (ray_camera_init(&cam, s.eye, s.target, s.up, s.fov, W, H, &err)) {
+        if (ray_camera_init(&cam, s.camera.eye, s.camera.target, s.camera.up, s.camera.fov, W, H, &err)) {
             fprintf(stderr, "ivoct_ray_error: %s: camera: %s\n", path, err.msg);
             scene_free(&s);
             status = 1;
@@ -326,10 +327,9 @@ int main(int argc, char **argv)
                         "ambiguous)\n",
                 cur_surface, W, H, R.time_s, R.n_in, R.n_hit, R.n_amb);
 
-        oct_params_t op = {0};
-        op.depth = depth >= 0 ? depth : s.depth;
-        op.tests = s.tests;
-        op.refine = s.refine;
+        oct_params_t op = s.octree;
+        if (depth >= 0)
+            op.depth = depth;
         op.threads = threads;
         oct_tree_t *tree = NULL;
         double tb = omp_get_wtime();

@@ -1,8 +1,11 @@
-/* ivoct command line — helpers shared by the subcommands (internal to cli/). */
+/* ivoct command line — internal to cli/: the subcommands (cmd_*.c, dispatched
+ * by main.c), the option parser they share (options.c) and the helpers
+ * (util.c). */
 #ifndef IVOCT_CLI_H
 #define IVOCT_CLI_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdio.h>
 
 #include "../expr/error.h"
@@ -12,13 +15,70 @@ enum { EXIT_OK = 0, EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 
 #define IVOCT_VERSION "0.1.0"
 
-/* Subcommands: each returns an exit code. */
+/* A macro's value as a string literal: CLI_STR(OCT_MAX_DEPTH) is "21". */
+#define CLI_STR_(x) #x
+#define CLI_STR(x) CLI_STR_(x)
+
+/* ---- subcommands (cmd_*.c): each returns an exit code ------------------------------ */
+
 int cmd_eval(int argc, char **argv);
 int cmd_build(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 
-/* Print "ivoct CMD: message" to stderr; returns EXIT_USAGE. */
+/* ---- options (options.c) ------------------------------------------------------------
+ * Each command describes its options in a table, parsed by cli_parse; the
+ * command's --help is printed from the same table. */
+
+typedef enum cli_kind {
+    CLI_HELP,       /* print the command's help on stdout: the command exits 0 */
+    CLI_FLAG,       /* bool *target = true */
+    CLI_STRING,     /* const char **target = the value (the last one given wins) */
+    CLI_INT,        /* long *target: an integer in [lo, hi] */
+    CLI_DOUBLE,     /* double *target: nargs finite numbers */
+    CLI_CUSTOM,     /* parse(opt, value, target, msg, n) */
+    CLI_OPERAND,    /* const char **target: the next argument that is not an option */
+} cli_kind_t;
+
+typedef struct cli_option {
+    const char *name;  /* "--depth"; for CLI_OPERAND its name in the help ("SCENE") */
+    const char *alias; /* another spelling ("-q"), or NULL */
+    cli_kind_t kind;
+    void *target;
+    int nargs;         /* values after the option: 0 means 1 for the kinds that take one */
+    long lo, hi;       /* CLI_INT: the range */
+    /* CLI_CUSTOM: 0 when the value is fine, else non-zero with the message
+     * (one line, naming opt) in msg */
+    int (*parse)(const char *opt, const char *value, void *target, char *msg, size_t n);
+    bool *given;       /* may be NULL: set to true when the option is given */
+    const char *needs; /* what is missing when the values are: "an expression"
+                          (default "a value", "N values") */
+    const char *arg;   /* in the help after the name: "N", "F.csv" */
+    const char *help;  /* in the help; '\n' starts a continuation line; NULL: not listed */
+} cli_option_t;
+
+typedef struct cli_command {
+    const char *name;            /* "build" */
+    const char *synopsis;        /* the help above the option list */
+    int column;                  /* width of the name column of the option list */
+    const cli_option_t *options; /* the last one has name NULL */
+} cli_command_t;
+
+/* What cli_parse returns when the command is to run. */
+#define CLI_RUN (-1)
+
+/* Parse argv[1..argc-1] by cmd's table: options (any argument that starts
+ * with '-' and is not "-") and operands, in any order.  Returns CLI_RUN, or an
+ * exit code: EXIT_OK after --help, EXIT_USAGE after a one-line message on
+ * stderr. */
+int cli_parse(const cli_command_t *cmd, int argc, char **argv);
+
+/* The synopsis, then "  NAME ARG   help" for every option with help. */
+void cli_print_help(const cli_command_t *cmd, FILE *f);
+
+/* ---- helpers (util.c) ------------------------------------------------------------ */
+
+/* Print "ivoct CMD: message (see 'ivoct CMD --help')" to stderr; returns EXIT_USAGE. */
 int cli_usage_error(const char *cmd, const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 2, 3)))
@@ -39,6 +99,9 @@ bool cli_parse_int(const char *cmd, const char *opt, const char *text, long lo, 
  * as Python's read them back as inf), NaN as null. */
 void cli_json_double(FILE *f, double x);
 
+/* Print a JSON string literal (quotes, backslashes and control characters escaped). */
+void cli_json_string(FILE *f, const char *s);
+
 /* A progress bar on stderr, shown once the work has lasted a second.  The
  * caller only installs it when stderr is a terminal and not --quiet.  With
  * frames > 1 the fraction is of frame `frame` of `frames`. */
@@ -50,8 +113,5 @@ typedef struct cli_progress {
 
 /* The callback: user is a cli_progress_t. */
 void cli_show_progress(void *user, double fraction);
-
-/* Print a JSON string literal (quotes, backslashes and control characters escaped). */
-void cli_json_string(FILE *f, const char *s);
 
 #endif

@@ -1,5 +1,6 @@
 /* ivoct build — the octree of a scene, and its outputs. */
 #define _POSIX_C_SOURCE 200809L
+#include <math.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,38 +14,14 @@
 #include "../scene/scene.h"
 #include "cli.h"
 
-_Static_assert((unsigned)OCT_TEST_INTERVAL == (unsigned)SCENE_TEST_INTERVAL &&
-                   (unsigned)OCT_TEST_LIPSCHITZ == (unsigned)SCENE_TEST_LIPSCHITZ &&
-                   (unsigned)OCT_TEST_ILIE == (unsigned)SCENE_TEST_ILIE,
-               "scene and octree test bits agree");
-
-static const char HELP[] =
+static const char SYNOPSIS[] =
     "usage: ivoct build SCENE [options]\n"
     "\n"
     "Subdivide the scene's box into the octree of cells that may hold the surface\n"
     "f = 0.  Every cell that holds part of the surface is kept (certified by\n"
     "rigorous interval arithmetic); cells proven empty are classified inside\n"
     "(f < 0) or outside (f > 0).\n"
-    "\n"
-    "  --depth N         max depth, 0..21 (scene [octree] depth, default 8)\n"
-    "  --tests LIST      tests of the chain, cheapest first: interval, lipschitz, ilie\n"
-    "                    (scene [octree] tests, default interval,lipschitz)\n"
-    "  --refine EPS      with ilie: stop early where the surface is within a slab\n"
-    "                    thinner than EPS and has no fold (certified error bound EPS;\n"
-    "                    scene [octree] refine, default 0 = off)\n"
-    "  --threads N       threads (default: all cores); the result is the same for any N\n"
-    "  --max-memory SIZE stop with an error past SIZE bytes (suffixes K M G), default none\n"
-    "  --cells F.csv     surface leaves, one per line in Morton order:\n"
-    "                    x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi,nx,ny,nz,d_lo,d_hi,error_bound\n"
-    "                    (the slab n.p in [d_lo, d_hi] is empty where a leaf has none)\n"
-    "  --save F.ivo      the octree with its scene, for ivoct info and ivoct render\n"
-    "  --stats F.json    build statistics (keys in octree/README.md)\n"
-    "  --vtu F.vtu       surface leaves as VTK voxels (depth, f_lo, f_hi, error_bound)\n"
-    "  --htg F.htg       the whole octree as a VTK HyperTreeGrid (see docs/paraview.md)\n"
-    "  --vdb F.vdb       OpenVDB grids: surface (the leaves) and sdf (a level set)\n"
-    "  --mesh F          a triangle mesh of the surface (OpenVDB volumeToMesh of sdf);\n"
-    "                    the format follows the name: .vtp, .ply or .obj\n"
-    "  --quiet           no summary on stdout, no progress bar\n";
+    "\n";
 
 static int parse_size(const char *text, size_t *out)
 {
@@ -109,9 +86,9 @@ static int write_stats(const scene_t *s, const oct_tree_t *t, const char *path,
     char tests[64];
     int n = t->depth + 1;
     fputs("{\n  \"scene\": ", o);
-    cli_json_string(o, s->name);
+    cli_json_string(o, s->source.name);
     fputs(",\n  \"tests\": ", o);
-    cli_json_string(o, scene_tests_string(t->tests, tests, sizeof tests));
+    cli_json_string(o, oct_tests_format(t->tests, tests, sizeof tests));
     fputs(",\n", o);
     fprintf(o, "  \"depth\": %d,\n  \"leaves\": %u,\n  \"leaves_by_depth\": ", t->depth,
             t->n_leaves);
@@ -154,16 +131,6 @@ typedef struct exports {
     const char *vtu, *htg, *vdb, *mesh;
 } exports_t;
 
-/* The slot of an export option, NULL when opt is not one. */
-static const char **export_option(exports_t *ex, const char *opt)
-{
-    return !strcmp(opt, "--vtu")  ? &ex->vtu
-           : !strcmp(opt, "--htg") ? &ex->htg
-           : !strcmp(opt, "--vdb") ? &ex->vdb
-           : !strcmp(opt, "--mesh") ? &ex->mesh
-                                    : NULL;
-}
-
 /* Usage errors found before the build: exit 2, nothing built. */
 static int check_exports(const exports_t *ex)
 {
@@ -176,82 +143,103 @@ static int check_exports(const exports_t *ex)
 static int write_exports(const scene_t *s, const oct_tree_t *t, const exports_t *ex,
                          ivoct_error_t *err)
 {
-    exp_meta_t meta = {s->name, s->f_text, s->n_lets, s->let_names, s->let_texts};
-    if (ex->vtu && exp_vtu(t, &meta, ex->vtu, err))
+    if (ex->vtu && exp_vtu(t, &s->source, ex->vtu, err))
         return -1;
-    if (ex->htg && exp_htg(t, s->tape, &meta, ex->htg, err))
+    if (ex->htg && exp_htg(t, s->tape, &s->source, ex->htg, err))
         return -1;
-    if (ex->vdb && exp_vdb(t, s->tape, &meta, ex->vdb, err))
+    if (ex->vdb && exp_vdb(t, s->tape, &s->source, ex->vdb, err))
         return -1;
-    if (ex->mesh && exp_mesh(t, s->tape, &meta, ex->mesh, err))
+    if (ex->mesh && exp_mesh(t, s->tape, &s->source, ex->mesh, err))
         return -1;
     return 0;
+}
+
+/* ---- options ------------------------------------------------------------------------ */
+
+static int parse_tests(const char *opt, const char *value, void *target, char *msg, size_t n)
+{
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    if (!oct_tests_parse(value, target, &err))
+        return 0;
+    snprintf(msg, n, "%s: %s", opt, err.msg);
+    return -1;
+}
+
+static int parse_refine(const char *opt, const char *value, void *target, char *msg, size_t n)
+{
+    char *end;
+    double v = strtod(value, &end);
+    if (end == value || *end != '\0' || !isfinite(v) || v < 0) {
+        snprintf(msg, n, "%s expects a number >= 0, got '%s'", opt, value);
+        return -1;
+    }
+    *(double *)target = v;
+    return 0;
+}
+
+static int parse_memory(const char *opt, const char *value, void *target, char *msg, size_t n)
+{
+    if (!parse_size(value, target))
+        return 0;
+    snprintf(msg, n, "%s expects a size like 512M or 2G, got '%s'", opt, value);
+    return -1;
 }
 
 int cmd_build(int argc, char **argv)
 {
     exports_t ex = {0};
     const char *scene_path = NULL, *cells = NULL, *save = NULL, *stats = NULL;
-    const char *tests_text = NULL;
+    unsigned tests = 0;
     long depth = -1, threads = 0;
     double refine = -1;
     size_t max_memory = 0;
-    bool quiet = false;
+    bool quiet = false, tests_given = false;
 
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
-#define NEED_VALUE()                                                                        \
-    do {                                                                                    \
-        if (!v)                                                                             \
-            return cli_usage_error("build", "%s needs a value", a);                         \
-        i++;                                                                                \
-    } while (0)
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            fputs(HELP, stdout);
-            return EXIT_OK;
-        } else if (!strcmp(a, "--depth")) {
-            NEED_VALUE();
-            if (!cli_parse_int("build", a, v, 0, OCT_MAX_DEPTH, &depth))
-                return EXIT_USAGE;
-        } else if (!strcmp(a, "--threads")) {
-            NEED_VALUE();
-            if (!cli_parse_int("build", a, v, 1, 1024, &threads))
-                return EXIT_USAGE;
-        } else if (!strcmp(a, "--tests")) {
-            NEED_VALUE();
-            tests_text = v;
-        } else if (!strcmp(a, "--refine")) {
-            NEED_VALUE();
-            if (!cli_parse_double("build", a, v, &refine) || refine < 0)
-                return cli_usage_error("build", "--refine expects a number >= 0");
-        } else if (!strcmp(a, "--max-memory")) {
-            NEED_VALUE();
-            if (parse_size(v, &max_memory))
-                return cli_usage_error("build", "--max-memory expects a size like 512M or 2G, got '%s'", v);
-        } else if (!strcmp(a, "--cells")) {
-            NEED_VALUE();
-            cells = v;
-        } else if (!strcmp(a, "--save")) {
-            NEED_VALUE();
-            save = v;
-        } else if (!strcmp(a, "--stats")) {
-            NEED_VALUE();
-            stats = v;
-        } else if (export_option(&ex, a)) {
-            NEED_VALUE();
-            *export_option(&ex, a) = v;
-        } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
-            quiet = true;
-        } else if (a[0] == '-' && a[1] != '\0') {
-            return cli_usage_error("build", "unknown option '%s'", a);
-        } else if (!scene_path) {
-            scene_path = a;
-        } else {
-            return cli_usage_error("build", "unexpected argument '%s'", a);
-        }
-#undef NEED_VALUE
-    }
+    const cli_option_t options[] = {
+        {.name = "--help", .alias = "-h", .kind = CLI_HELP},
+        {.name = "SCENE", .kind = CLI_OPERAND, .target = &scene_path},
+        {.name = "--depth", .kind = CLI_INT, .target = &depth, .lo = 0, .hi = OCT_MAX_DEPTH,
+         .arg = "N", .help = "max depth, 0.." CLI_STR(OCT_MAX_DEPTH) " (scene [octree] depth, default "
+                             CLI_STR(OCT_DEFAULT_DEPTH) ")"},
+        {.name = "--tests", .kind = CLI_CUSTOM, .target = &tests, .parse = parse_tests,
+         .given = &tests_given, .arg = "LIST",
+         .help = "tests of the chain, cheapest first: interval, lipschitz, ilie\n"
+                 "(scene [octree] tests, default interval,lipschitz)"},
+        {.name = "--refine", .kind = CLI_CUSTOM, .target = &refine, .parse = parse_refine,
+         .arg = "EPS",
+         .help = "with ilie: stop early where the surface is within a slab\n"
+                 "thinner than EPS and has no fold (certified error bound EPS;\n"
+                 "scene [octree] refine, default 0 = off)"},
+        {.name = "--threads", .kind = CLI_INT, .target = &threads, .lo = 1, .hi = 1024, .arg = "N",
+         .help = "threads (default: all cores); the result is the same for any N"},
+        {.name = "--max-memory", .kind = CLI_CUSTOM, .target = &max_memory, .parse = parse_memory,
+         .arg = "SIZE", .help = "stop with an error past SIZE bytes (suffixes K M G), default none"},
+        {.name = "--cells", .kind = CLI_STRING, .target = &cells, .arg = "F.csv",
+         .help = "surface leaves, one per line in Morton order:\n"
+                 "x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi,nx,ny,nz,d_lo,d_hi,error_bound\n"
+                 "(the slab n.p in [d_lo, d_hi] is empty where a leaf has none)"},
+        {.name = "--save", .kind = CLI_STRING, .target = &save, .arg = "F.ivo",
+         .help = "the octree with its scene, for ivoct info and ivoct render"},
+        {.name = "--stats", .kind = CLI_STRING, .target = &stats, .arg = "F.json",
+         .help = "build statistics (keys in octree/README.md)"},
+        {.name = "--vtu", .kind = CLI_STRING, .target = &ex.vtu, .arg = "F.vtu",
+         .help = "surface leaves as VTK voxels (depth, f_lo, f_hi, error_bound)"},
+        {.name = "--htg", .kind = CLI_STRING, .target = &ex.htg, .arg = "F.htg",
+         .help = "the whole octree as a VTK HyperTreeGrid (see docs/paraview.md)"},
+        {.name = "--vdb", .kind = CLI_STRING, .target = &ex.vdb, .arg = "F.vdb",
+         .help = "OpenVDB grids: surface (the leaves) and sdf (a level set)"},
+        {.name = "--mesh", .kind = CLI_STRING, .target = &ex.mesh, .arg = "F",
+         .help = "a triangle mesh of the surface (OpenVDB volumeToMesh of sdf);\n"
+                 "the format follows the name: .vtp, .ply or .obj"},
+        {.name = "--quiet", .alias = "-q", .kind = CLI_FLAG, .target = &quiet,
+         .help = "no summary on stdout, no progress bar"},
+        {0},
+    };
+    const cli_command_t cmd = {"build", SYNOPSIS, 18, options};
+    int rc = cli_parse(&cmd, argc, argv);
+    if (rc != CLI_RUN)
+        return rc;
     if (!scene_path)
         return cli_usage_error("build", "missing the scene file");
     if (check_exports(&ex))
@@ -264,38 +252,29 @@ int cmd_build(int argc, char **argv)
         cli_print_error(&err);
         return EXIT_USAGE;
     }
-    int rc = EXIT_OK;
+    rc = EXIT_OK;
+    /* the scene's settings, overridden by the options */
+    oct_params_t p = s.octree;
     if (depth >= 0)
-        s.depth = (int)depth;
+        p.depth = (int)depth;
     if (refine >= 0)
-        s.refine = refine;
-    if (tests_text && scene_parse_tests(tests_text, &s.tests, &err)) {
-        rc = cli_usage_error("build", "--tests: %s", err.msg);
-        goto out;
-    }
-    if (s.refine > 0 && !(s.tests & SCENE_TEST_ILIE)) {
-        rc = cli_usage_error("build", "refine %g needs the ilie test (--tests interval,lipschitz,ilie)",
-                             s.refine);
-        goto out;
-    }
-    if (s.depth > OCT_MAX_DEPTH) {
-        rc = cli_usage_error("build", "depth %d is more than %d", s.depth, OCT_MAX_DEPTH);
+        p.refine = refine;
+    if (tests_given)
+        p.tests = tests;
+    if (oct_params_check(&p, &err)) {
+        bool ilie = p.refine > 0 && !(p.tests & OCT_TEST_ILIE);
+        rc = cli_usage_error("build", "%s%s", err.msg, ilie ? " (--tests interval,lipschitz,ilie)" : "");
         goto out;
     }
 
     cli_progress_t prog = {"building", omp_get_wtime(), 0, 0, 1};
-    oct_params_t p = {
-        .depth = s.depth,
-        .tests = s.tests,
-        .refine = s.refine,
-        /* slabs are read by the CSV, the .vtu (normals, error bounds) and
-         * renders from the .ivo; without those, ILIE runs only as a test */
-        .slabs_unused = !cells && !save && !ex.vtu,
-        .threads = (int)threads,
-        .max_memory = max_memory,
-        .progress = !quiet && isatty(2) ? cli_show_progress : NULL,
-        .progress_user = &prog,
-    };
+    /* slabs are read by the CSV, the .vtu (normals, error bounds) and
+     * renders from the .ivo; without those, ILIE runs only as a test */
+    p.slabs_unused = !cells && !save && !ex.vtu;
+    p.threads = (int)threads;
+    p.max_memory = max_memory;
+    p.progress = !quiet && isatty(2) ? cli_show_progress : NULL;
+    p.progress_user = &prog;
     oct_tree_t *tree;
     if (oct_build(s.tape, s.box, &p, &tree, &err)) {
         fprintf(stderr, "ivoct build: %s\n", err.msg);
@@ -304,11 +283,8 @@ int cmd_build(int argc, char **argv)
     }
     if (cells && write_cells(tree, cells, &err))
         rc = EXIT_RUNTIME;
-    if (rc == EXIT_OK && save) {
-        oct_source_t src = {s.name, s.n_lets, s.let_names, s.let_texts, s.f_text};
-        if (oct_save(tree, &src, save, &err))
-            rc = EXIT_RUNTIME;
-    }
+    if (rc == EXIT_OK && save && oct_save(tree, &s.source, save, &err))
+        rc = EXIT_RUNTIME;
     if (rc == EXIT_OK && stats && write_stats(&s, tree, stats, &err))
         rc = EXIT_RUNTIME;
     if (rc == EXIT_OK && write_exports(&s, tree, &ex, &err))
@@ -316,10 +292,10 @@ int cmd_build(int argc, char **argv)
     if (rc != EXIT_OK) {
         fprintf(stderr, "ivoct build: %s\n", err.msg);
     } else if (!quiet) {
-        char tests[64];
+        char names[64];
         printf("%s: depth %d, tests %s: %u surface leaves, %llu cells visited, %.3f s, %d "
                "thread%s\n",
-               s.name, tree->depth, scene_tests_string(tree->tests, tests, sizeof tests),
+               s.source.name, tree->depth, oct_tests_format(tree->tests, names, sizeof names),
                tree->n_leaves, (unsigned long long)tree->stats.cells_visited,
                tree->stats.time_s, tree->stats.threads, tree->stats.threads > 1 ? "s" : "");
     }

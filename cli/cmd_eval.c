@@ -6,20 +6,14 @@
 #include "../scene/scene.h"
 #include "cli.h"
 
-static const char HELP[] =
+static const char SYNOPSIS[] =
     "usage: ivoct eval (SCENE | -e EXPR) [--box X0 X1 Y0 Y1 Z0 Z1] [--grad] [--json]\n"
     "\n"
     "Print a rigorous enclosure [lo, hi] of f over the box: every value of f at a\n"
     "point of the box where f is defined lies in it.  A point box (X0 = X1, ...)\n"
     "gives the enclosure of f at that point.  An empty result means f is defined\n"
     "nowhere in the box.\n"
-    "\n"
-    "  SCENE        a scene file (.ini); its f and box are used\n"
-    "  -e EXPR      an expression in x, y, z instead of a scene\n"
-    "  --box ...    the box (default: the scene's box; required with -e)\n"
-    "  --grad       also enclose the gradient (df/dx, df/dy, df/dz)\n"
-    "  --json       print {\"lo\": .., \"hi\": .. [, \"grad\": [[lo,hi],[lo,hi],[lo,hi]]]}\n"
-    "               with 17 significant digits; infinities as 1e999, empty as null\n";
+    "\n";
 
 static void print_iv_text(const char *label, iv_t v)
 {
@@ -44,34 +38,26 @@ int cmd_eval(int argc, char **argv)
     double box[6];
     bool have_box = false, grad = false, json = false;
 
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            fputs(HELP, stdout);
-            return EXIT_OK;
-        } else if (!strcmp(a, "-e")) {
-            if (i + 1 >= argc)
-                return cli_usage_error("eval", "-e needs an expression");
-            expr = argv[++i];
-        } else if (!strcmp(a, "--box")) {
-            if (i + 6 >= argc)
-                return cli_usage_error("eval", "--box needs 6 numbers");
-            for (int k = 0; k < 6; k++)
-                if (!cli_parse_double("eval", "--box", argv[++i], &box[k]))
-                    return EXIT_USAGE;
-            have_box = true;
-        } else if (!strcmp(a, "--grad")) {
-            grad = true;
-        } else if (!strcmp(a, "--json")) {
-            json = true;
-        } else if (a[0] == '-' && a[1] != '\0') {
-            return cli_usage_error("eval", "unknown option '%s'", a);
-        } else if (!scene_path) {
-            scene_path = a;
-        } else {
-            return cli_usage_error("eval", "unexpected argument '%s'", a);
-        }
-    }
+    const cli_option_t options[] = {
+        {.name = "--help", .alias = "-h", .kind = CLI_HELP},
+        {.name = "SCENE", .kind = CLI_OPERAND, .target = &scene_path,
+         .help = "a scene file (.ini); its f and box are used"},
+        {.name = "-e", .kind = CLI_STRING, .target = &expr, .needs = "an expression", .arg = "EXPR",
+         .help = "an expression in x, y, z instead of a scene"},
+        {.name = "--box", .kind = CLI_DOUBLE, .target = box, .nargs = 6, .given = &have_box,
+         .needs = "6 numbers", .arg = "...",
+         .help = "the box (default: the scene's box; required with -e)"},
+        {.name = "--grad", .kind = CLI_FLAG, .target = &grad,
+         .help = "also enclose the gradient (df/dx, df/dy, df/dz)"},
+        {.name = "--json", .kind = CLI_FLAG, .target = &json,
+         .help = "print {\"lo\": .., \"hi\": .. [, \"grad\": [[lo,hi],[lo,hi],[lo,hi]]]}\n"
+                 "with 17 significant digits; infinities as 1e999, empty as null"},
+        {0},
+    };
+    const cli_command_t cmd = {"eval", SYNOPSIS, 13, options};
+    int rc = cli_parse(&cmd, argc, argv);
+    if (rc != CLI_RUN)
+        return rc;
     if (!scene_path == !expr)
         return cli_usage_error("eval", "give either a scene file or -e EXPR");
     if (expr && !have_box)
@@ -85,7 +71,7 @@ int cmd_eval(int argc, char **argv)
     scene_t s;
     ivoct_error_t err;
     ivoct_error_clear(&err);
-    int rc = expr ? scene_from_expr(expr, box, &s, &err) : scene_load(scene_path, &s, &err);
+    rc = expr ? scene_from_expr(expr, box, &s, &err) : scene_load(scene_path, &s, &err);
     if (rc) {
         cli_print_error(&err);
         return EXIT_USAGE;

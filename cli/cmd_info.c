@@ -6,7 +6,7 @@
 #include "../octree/octree.h"
 #include "cli.h"
 
-static const char HELP[] =
+static const char SYNOPSIS[] =
     "usage: ivoct info FILE\n"
     "\n"
     "Summarise a file of ivoct build: an octree (.ivo: its scene, box, depth, tests,\n"
@@ -32,8 +32,8 @@ static int info_ivo(const char *path)
     printf("box:      [%.17g, %.17g] x [%.17g, %.17g] x [%.17g, %.17g]\n", t->box[0], t->box[1],
            t->box[2], t->box[3], t->box[4], t->box[5]);
     printf("depth:    %d\n", t->depth);
-    printf("tests:    %s%s%s\n", t->tests & OCT_TEST_INTERVAL ? "interval " : "",
-           t->tests & OCT_TEST_LIPSCHITZ ? "lipschitz " : "", t->tests & OCT_TEST_ILIE ? "ilie" : "");
+    char tests[64];
+    printf("tests:    %s\n", oct_tests_format(t->tests, tests, sizeof tests));
     printf("nodes:    %u\n", t->n_nodes);
     printf("leaves:   %u\n", t->n_leaves);
     uint64_t by_depth[OCT_MAX_DEPTH + 1] = {0};
@@ -51,20 +51,26 @@ static int info_ivo(const char *path)
 
 int cmd_info(int argc, char **argv)
 {
-    if (argc >= 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-        fputs(HELP, stdout);
-        return EXIT_OK;
-    }
-    if (argc != 2)
+    const char *path = NULL;
+    const cli_option_t options[] = {
+        {.name = "--help", .alias = "-h", .kind = CLI_HELP},
+        {.name = "FILE", .kind = CLI_OPERAND, .target = &path},
+        {0},
+    };
+    const cli_command_t cmd = {"info", SYNOPSIS, 0, options};
+    int rc = cli_parse(&cmd, argc, argv);
+    if (rc != CLI_RUN)
+        return rc;
+    if (!path)
         return cli_usage_error("info", "expects exactly one file");
     /* every format is recognised by its content, whatever the file's name: the
      * exports first; anything else is read as .ivo, whose loader says what is wrong */
     ivoct_error_t err;
     ivoct_error_clear(&err);
-    int r = exp_info(argv[1], stdout, &err);
+    int r = exp_info(path, stdout, &err);
     if (r < 0) {
         fprintf(stderr, "ivoct info: %s\n", err.msg);
         return EXIT_USAGE;
     }
-    return r == 0 ? EXIT_OK : info_ivo(argv[1]);
+    return r == 0 ? EXIT_OK : info_ivo(path);
 }

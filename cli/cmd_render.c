@@ -14,7 +14,7 @@
 #include "../scene/scene.h"
 #include "cli.h"
 
-static const char HELP[] =
+static const char SYNOPSIS[] =
     "usage: ivoct render SCENE [options]\n"
     "\n"
     "Ray cast the surface f = 0 of a scene: one primary ray per pixel from the\n"
@@ -27,25 +27,7 @@ static const char HELP[] =
     "By default the scene's octree is built first (its [octree] depth, tests and\n"
     "refine, as ivoct build does) and each ray is searched only over the surface\n"
     "leaves it meets, front to back; the build time is reported apart.\n"
-    "\n"
-    "  --octree F.ivo    use a saved octree (ivoct build --save) instead of building\n"
-    "                    one: it must come from the same f (and let.*) and box as\n"
-    "                    SCENE, which still gives the camera and render settings\n"
-    "  --no-octree       search each ray over the whole scene box\n"
-    "  --method M        mitchell | newton | newton-ah | mrfro | mrfro-newton |\n"
-    "                    lipschitz | sampling (not certified)\n"
-    "                    (scene [render] method, default newton-ah)\n"
-    "  --size WxH        image size in pixels (scene [camera] size, default 300x300)\n"
-    "  --threads N       threads (default: all cores); the outputs are the same for any N\n"
-    "  --png F           the shaded image, 8-bit RGB\n"
-    "  --vti F           the render buffers as VTK ImageData: per pixel t (NaN on a\n"
-    "                    miss), hit, point, normal, dir; camera and method as field data\n"
-    "  --frames N        a turntable of N views about the camera's up axis through the\n"
-    "                    target, written as F_000.png, F_001.png, ... (default 1: F)\n"
-    "  --stats F.json    statistics: method, octree, width, height, rays, hits,\n"
-    "                    time_s (render only), tape_evals, leaves_visited,\n"
-    "                    build_time_s (when built here), ... (totals over frames)\n"
-    "  --quiet           no summary on stdout, no progress bar\n";
+    "\n";
 
 /* "WxH", both in 1..RAY_MAX_SIZE */
 static int parse_size(const char *text, int *w, int *h)
@@ -166,7 +148,7 @@ static int write_stats(const char *path, const scene_t *s, ray_method_t method, 
         return -1;
     FILE *o = f.f;
     fputs("{\n  \"scene\": ", o);
-    cli_json_string(o, s->name);
+    cli_json_string(o, s->source.name);
     fputs(",\n  \"method\": ", o);
     cli_json_string(o, ray_method_name(method));
     fprintf(o,
@@ -208,100 +190,107 @@ static int write_stats(const char *path, const scene_t *s, ray_method_t method, 
 static int same_surface(const scene_t *s, const oct_tree_t *t, const oct_source_t *src,
                         char *why, size_t n)
 {
+    const oct_source_t *own = &s->source;
     for (int i = 0; i < 6; i++)
         if (!(s->box[i] == t->box[i])) {
             snprintf(why, n, "its box (%.17g %.17g %.17g %.17g %.17g %.17g) is not the scene's",
                      t->box[0], t->box[1], t->box[2], t->box[3], t->box[4], t->box[5]);
             return 0;
         }
-    if (!src->f || strcmp(src->f, s->f_text)) {
+    if (!src->f || strcmp(src->f, own->f)) {
         snprintf(why, n, "its f (%.200s) is not the scene's", src->f ? src->f : "none");
         return 0;
     }
-    if (src->n_lets != s->n_lets) {
-        snprintf(why, n, "it has %zu let definitions, the scene %zu", src->n_lets, s->n_lets);
+    if (src->n_lets != own->n_lets) {
+        snprintf(why, n, "it has %zu let definitions, the scene %zu", src->n_lets, own->n_lets);
         return 0;
     }
-    for (size_t i = 0; i < s->n_lets; i++)
-        if (strcmp(src->let_names[i], s->let_names[i]) ||
-            strcmp(src->let_texts[i], s->let_texts[i])) {
+    for (size_t i = 0; i < own->n_lets; i++)
+        if (strcmp(src->let_names[i], own->let_names[i]) ||
+            strcmp(src->let_texts[i], own->let_texts[i])) {
             snprintf(why, n, "its let.%.100s is not the scene's", src->let_names[i]);
             return 0;
         }
     return 1;
 }
 
+/* ---- options ------------------------------------------------------------------------ */
+
+static int parse_method(const char *opt, const char *value, void *target, char *msg, size_t n)
+{
+    (void)opt;
+    if (!ray_method_parse(value, target))
+        return 0;
+    char list[256];
+    snprintf(msg, n, "unknown method '%s'; expected %s", value, ray_method_list(list, sizeof list));
+    return -1;
+}
+
+static int parse_wxh(const char *opt, const char *value, void *target, char *msg, size_t n)
+{
+    int *wh = target;
+    if (!parse_size(value, &wh[0], &wh[1]))
+        return 0;
+    snprintf(msg, n, "%s expects WxH with W and H in 1..%d, got '%s'", opt, RAY_MAX_SIZE, value);
+    return -1;
+}
+
 int cmd_render(int argc, char **argv)
 {
     const char *scene_path = NULL, *png = NULL, *vti = NULL, *stats = NULL, *octree = NULL;
-    const char *method_text = NULL;
+    ray_method_t method = RAY_NEWTON_AH;
     long threads = 0, frames = 1;
-    int width = 0, height = 0;
-    bool quiet = false, no_octree = false;
+    int size[2] = {0, 0};
+    bool quiet = false, no_octree = false, no_leaf_tapes = false, method_given = false,
+         size_given = false;
 
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
-#define NEED_VALUE()                                                                        \
-    do {                                                                                    \
-        if (!v)                                                                             \
-            return cli_usage_error("render", "%s needs a value", a);                        \
-        i++;                                                                                \
-    } while (0)
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            fputs(HELP, stdout);
-            return EXIT_OK;
-        } else if (!strcmp(a, "--no-octree")) {
-            no_octree = true;
-        } else if (!strcmp(a, "--octree")) {
-            NEED_VALUE();
-            octree = v;
-        } else if (!strcmp(a, "--method")) {
-            NEED_VALUE();
-            method_text = v;
-        } else if (!strcmp(a, "--size")) {
-            NEED_VALUE();
-            if (parse_size(v, &width, &height))
-                return cli_usage_error("render", "--size expects WxH with W and H in 1..%d, got '%s'",
-                                       RAY_MAX_SIZE, v);
-        } else if (!strcmp(a, "--threads")) {
-            NEED_VALUE();
-            if (!cli_parse_int("render", a, v, 1, 1024, &threads))
-                return EXIT_USAGE;
-        } else if (!strcmp(a, "--frames")) {
-            NEED_VALUE();
-            if (!cli_parse_int("render", a, v, 1, 100000, &frames))
-                return EXIT_USAGE;
-        } else if (!strcmp(a, "--png")) {
-            NEED_VALUE();
-            png = v;
-        } else if (!strcmp(a, "--vti")) {
-            NEED_VALUE();
-            vti = v;
-        } else if (!strcmp(a, "--stats")) {
-            NEED_VALUE();
-            stats = v;
-        } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
-            quiet = true;
-        } else if (a[0] == '-' && a[1] != '\0') {
-            return cli_usage_error("render", "unknown option '%s'", a);
-        } else if (!scene_path) {
-            scene_path = a;
-        } else {
-            return cli_usage_error("render", "unexpected argument '%s'", a);
-        }
-#undef NEED_VALUE
-    }
+    const cli_option_t options[] = {
+        {.name = "--help", .alias = "-h", .kind = CLI_HELP},
+        {.name = "SCENE", .kind = CLI_OPERAND, .target = &scene_path},
+        {.name = "--octree", .kind = CLI_STRING, .target = &octree, .arg = "F.ivo",
+         .help = "use a saved octree (ivoct build --save) instead of building\n"
+                 "one: it must come from the same f (and let.*) and box as\n"
+                 "SCENE, which still gives the camera and render settings"},
+        {.name = "--no-octree", .kind = CLI_FLAG, .target = &no_octree,
+         .help = "search each ray over the whole scene box"},
+        {.name = "--no-leaf-tapes", .kind = CLI_FLAG, .target = &no_leaf_tapes,
+         .help = "search every leaf with the scene's tape, not with the tape\n"
+                 "pruned to the leaf (which a scene with min, max or abs gets\n"
+                 "by default; the image is the same)"},
+        {.name = "--method", .kind = CLI_CUSTOM, .target = &method, .parse = parse_method,
+         .given = &method_given, .arg = "M",
+         .help = "mitchell | newton | newton-ah | mrfro | mrfro-newton |\n"
+                 "lipschitz | sampling (not certified)\n"
+                 "(scene [render] method, default newton-ah)"},
+        {.name = "--size", .kind = CLI_CUSTOM, .target = size, .parse = parse_wxh,
+         .given = &size_given, .arg = "WxH",
+         .help = "image size in pixels (scene [camera] size, default 300x300)"},
+        {.name = "--threads", .kind = CLI_INT, .target = &threads, .lo = 1, .hi = 1024, .arg = "N",
+         .help = "threads (default: all cores); the outputs are the same for any N"},
+        {.name = "--png", .kind = CLI_STRING, .target = &png, .arg = "F",
+         .help = "the shaded image, 8-bit RGB"},
+        {.name = "--vti", .kind = CLI_STRING, .target = &vti, .arg = "F",
+         .help = "the render buffers as VTK ImageData: per pixel t (NaN on a\n"
+                 "miss), hit, point, normal, dir; camera and method as field data"},
+        {.name = "--frames", .kind = CLI_INT, .target = &frames, .lo = 1, .hi = 100000, .arg = "N",
+         .help = "a turntable of N views about the camera's up axis through the\n"
+                 "target, written as F_000.png, F_001.png, ... (default 1: F)"},
+        {.name = "--stats", .kind = CLI_STRING, .target = &stats, .arg = "F.json",
+         .help = "statistics: method, octree, width, height, rays, hits,\n"
+                 "time_s (render only), tape_evals, leaves_visited,\n"
+                 "build_time_s (when built here), ... (totals over frames)"},
+        {.name = "--quiet", .alias = "-q", .kind = CLI_FLAG, .target = &quiet,
+         .help = "no summary on stdout, no progress bar"},
+        {0},
+    };
+    const cli_command_t cmd = {"render", SYNOPSIS, 18, options};
+    int rc = cli_parse(&cmd, argc, argv);
+    if (rc != CLI_RUN)
+        return rc;
     if (!scene_path)
         return cli_usage_error("render", "missing the scene file");
     if (octree && no_octree)
         return cli_usage_error("render", "--octree and --no-octree exclude each other");
-    ray_method_t method = RAY_NEWTON_AH;
-    if (method_text && ray_method_parse(method_text, &method))
-        return cli_usage_error("render",
-                               "unknown method '%s'; expected mitchell, newton, newton-ah, "
-                               "mrfro, mrfro-newton, lipschitz or sampling",
-                               method_text);
     scene_t s;
     ivoct_error_t err;
     ivoct_error_clear(&err);
@@ -309,25 +298,23 @@ int cmd_render(int argc, char **argv)
         cli_print_error(&err);
         return EXIT_USAGE;
     }
-    int rc = EXIT_OK;
+    rc = EXIT_OK;
     ray_image_t img = {0};
     oct_tree_t *tree = NULL;
+    oct_leaf_tapes_t *leaf_tapes = NULL;
     octree_info_t oi = {NULL, octree, 0.0};
-    if (!method_text && ray_method_parse(s.method, &method)) {
-        fprintf(stderr, "ivoct render: %s: unknown method '%s'\n", scene_path, s.method);
-        rc = EXIT_USAGE;
-        goto out;
-    }
-    if (width > 0) {
-        s.width = width;
-        s.height = height;
-    }
-    ray_camera_t cam0;
-    if (ray_camera_init(&cam0, s.eye, s.target, s.up, s.fov, s.width, s.height, &err)) {
+    if (!method_given)
+        method = s.method;
+    /* the scene's camera, at the size of --size */
+    ray_camera_t cam0 = s.camera;
+    if (size_given &&
+        ray_camera_init(&cam0, s.camera.eye, s.camera.target, s.camera.up, s.camera.fov, size[0],
+                        size[1], &err)) {
         fprintf(stderr, "ivoct render: %s: %s\n", scene_path, err.msg);
         rc = EXIT_USAGE;
         goto out;
     }
+    const int width = cam0.width, height = cam0.height;
     const char *outputs[3] = {png, vti, stats};
     for (int k = 0; k < 3; k++)
         if (outputs[k] && probe_output(outputs[k], k == 2 ? 1 : (int)frames, &err)) {
@@ -352,11 +339,13 @@ int cmd_render(int argc, char **argv)
             goto out;
         }
     } else if (!no_octree) {
-        oct_params_t op = {0};
-        op.depth = s.depth;
-        op.tests = s.tests;
-        op.refine = s.refine;
+        oct_params_t op = s.octree;
         op.threads = (int)threads;
+        if (oct_params_check(&op, &err)) {
+            fprintf(stderr, "ivoct render: %s: [octree] %s\n", scene_path, err.msg);
+            rc = EXIT_USAGE;
+            goto out;
+        }
         cli_progress_t bp = {"building the octree", omp_get_wtime(), 0, 0, 1};
         if (!quiet && isatty(2)) {
             op.progress = cli_show_progress;
@@ -371,7 +360,7 @@ int cmd_render(int argc, char **argv)
         oi.build_time_s = omp_get_wtime() - t0;
     }
     oi.tree = tree;
-    if (ray_image_alloc(&img, s.width, s.height, &err)) {
+    if (ray_image_alloc(&img, width, height, &err)) {
         fprintf(stderr, "ivoct render: %s\n", err.msg);
         rc = EXIT_RUNTIME;
         goto out;
@@ -380,6 +369,16 @@ int cmd_render(int argc, char **argv)
     ray_box_source_t bs;
     ray_octree_source_t trav;
     ray_source_t src = tree ? ray_octree_source(&trav, tree) : ray_box_source(&bs, s.box);
+    if (tree && !no_leaf_tapes && tape_has_choices(s.tape)) {
+        /* the margin of the camera covers every turntable view of it */
+        if (oct_leaf_tapes_build(tree, s.tape, ray_tape_margin(&cam0, s.box), &leaf_tapes,
+                                 &err)) {
+            fprintf(stderr, "ivoct render: %s\n", err.msg);
+            rc = EXIT_RUNTIME;
+            goto out;
+        }
+        trav.tapes = leaf_tapes;
+    }
     ray_render_opts_t ro;
     ray_render_opts_default(&ro);
     ro.method = method;
@@ -427,7 +426,7 @@ int cmd_render(int argc, char **argv)
         }
     }
     if (stats &&
-        write_stats(stats, &s, method, s.width, s.height, (int)frames, &total, &oi, &err)) {
+        write_stats(stats, &s, method, width, height, (int)frames, &total, &oi, &err)) {
         fprintf(stderr, "ivoct render: %s\n", err.msg);
         rc = EXIT_RUNTIME;
         goto out;
@@ -444,13 +443,14 @@ int cmd_render(int argc, char **argv)
                      tree->depth, tree->n_leaves, oi.build_time_s);
         printf("%s: %s, %dx%d%s, %s: %llu hits of %llu rays (%llu tangent), %llu leaves "
                "searched, render %.3f s, %d thread%s\n",
-               s.name, ray_method_name(method), s.width, s.height,
+               s.source.name, ray_method_name(method), width, height,
                frames > 1 ? " per frame" : "", how, (unsigned long long)total.hits,
                (unsigned long long)total.rays, (unsigned long long)total.tangent_hits,
                (unsigned long long)total.leaves, total.time_s, total.threads,
                total.threads > 1 ? "s" : "");
     }
 out:
+    oct_leaf_tapes_free(leaf_tapes);
     oct_free(tree);
     ray_image_free(&img);
     scene_free(&s);

@@ -1,9 +1,5 @@
 /* ivoct — the command line: dispatch to subcommands. */
-#include <math.h>
-#include <omp.h>
-#include <stdarg.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 
 #include "cli.h"
@@ -26,91 +22,6 @@ static const char USAGE[] =
     "\n"
     "Run 'ivoct COMMAND --help' for the options of a command.\n"
     "Exit codes: 0 ok, 1 runtime failure, 2 usage or input error.\n";
-
-int cli_usage_error(const char *cmd, const char *fmt, ...)
-{
-    va_list ap;
-    fprintf(stderr, "ivoct %s: ", cmd);
-    va_start(ap, fmt);
-    vfprintf(stderr, fmt, ap);
-    va_end(ap);
-    fprintf(stderr, " (see 'ivoct %s --help')\n", cmd);
-    return EXIT_USAGE;
-}
-
-void cli_print_error(const ivoct_error_t *err)
-{
-    char buf[1024];
-    fprintf(stderr, "ivoct: %s\n", ivoct_error_format(err, buf, sizeof buf));
-}
-
-bool cli_parse_double(const char *cmd, const char *opt, const char *text, double *out)
-{
-    char *end;
-    double v = strtod(text, &end);
-    if (end == text || *end != '\0' || !isfinite(v)) {
-        cli_usage_error(cmd, "%s expects a finite number, got '%s'", opt, text);
-        return false;
-    }
-    *out = v;
-    return true;
-}
-
-bool cli_parse_int(const char *cmd, const char *opt, const char *text, long lo, long hi,
-                   long *out)
-{
-    char *end;
-    long v = strtol(text, &end, 10);
-    if (end == text || *end != '\0' || v < lo || v > hi) {
-        cli_usage_error(cmd, "%s expects an integer from %ld to %ld, got '%s'", opt, lo, hi,
-                        text);
-        return false;
-    }
-    *out = v;
-    return true;
-}
-
-void cli_json_double(FILE *f, double x)
-{
-    if (x != x)
-        fputs("null", f);
-    else if (isinf(x))
-        fputs(x > 0 ? "1e999" : "-1e999", f);
-    else
-        fprintf(f, "%.17g", x);
-}
-
-void cli_show_progress(void *user, double fraction)
-{
-    cli_progress_t *p = user;
-    if (!p->shown && omp_get_wtime() - p->start < 1.0)
-        return;
-    p->shown = 1;
-    int frames = p->frames > 0 ? p->frames : 1;
-    double total = (p->frame + fraction) / frames;
-    int width = 40, full = (int)(total * width + 0.5);
-    fprintf(stderr, "\r%s [%.*s%*s] %3d%%", p->label, full,
-            "########################################", width - full, "",
-            (int)(total * 100 + 0.5));
-    if (total >= 1.0)
-        fputc('\n', stderr);
-    fflush(stderr);
-}
-
-void cli_json_string(FILE *f, const char *s)
-{
-    fputc('"', f);
-    for (; s && *s; s++) {
-        unsigned char c = (unsigned char)*s;
-        if (c == '"' || c == '\\')
-            fprintf(f, "\\%c", c);
-        else if (c < 0x20)
-            fprintf(f, "\\u%04x", c);
-        else
-            fputc(c, f);
-    }
-    fputc('"', f);
-}
 
 int main(int argc, char **argv)
 {

@@ -38,16 +38,16 @@ void Output::commit()
         throw Error(err.msg);
 }
 
-std::vector<MetaItem> meta_strings(const exp_meta_t *meta)
+std::vector<MetaItem> meta_strings(const oct_source_t *src)
 {
     std::vector<MetaItem> items;
-    if (meta && meta->name)
-        items.push_back({"scene", meta->name});
-    for (size_t i = 0; meta && i < meta->n_lets; i++)
-        if (meta->let_names && meta->let_texts && meta->let_names[i] && meta->let_texts[i])
-            items.push_back({std::string("let.") + meta->let_names[i], meta->let_texts[i]});
-    if (meta && meta->f)
-        items.push_back({"expression", meta->f});
+    if (src && src->name)
+        items.push_back({"scene", src->name});
+    for (size_t i = 0; src && i < src->n_lets; i++)
+        if (src->let_names && src->let_texts && src->let_names[i] && src->let_texts[i])
+            items.push_back({std::string("let.") + src->let_names[i], src->let_texts[i]});
+    if (src && src->f)
+        items.push_back({"expression", src->f});
     items.push_back({"creator", "ivoct"});
     return items;
 }
@@ -67,13 +67,13 @@ void put_u32le(unsigned char *p, uint32_t v)
         p[i] = (unsigned char)(v >> (8 * i));
 }
 
-void write_ply(const Mesh &m, const exp_meta_t *meta, const char *path)
+void write_ply(const Mesh &m, const oct_source_t *src, const char *path)
 {
     Output out(path);
     size_t nv = m.points.size() / 3, nt = m.tris.size() / 3;
     std::string header = "ply\nformat binary_little_endian 1.0\ncomment written by ivoct\n";
-    if (meta && meta->name && !std::strpbrk(meta->name, "\r\n"))
-        header += std::string("comment scene ") + meta->name + "\n";
+    if (src && src->name && !std::strpbrk(src->name, "\r\n"))
+        header += std::string("comment scene ") + src->name + "\n";
     header += "element vertex " + std::to_string(nv) +
               "\nproperty float x\nproperty float y\nproperty float z\n"
               "element face " + std::to_string(nt) +
@@ -107,13 +107,13 @@ void write_ply(const Mesh &m, const exp_meta_t *meta, const char *path)
     out.commit();
 }
 
-void write_obj(const Mesh &m, const exp_meta_t *meta, const char *path)
+void write_obj(const Mesh &m, const oct_source_t *src, const char *path)
 {
     Output out(path);
     FILE *f = out.file();
     std::fprintf(f, "# written by ivoct\n");
-    if (meta && meta->name && !std::strpbrk(meta->name, "\r\n"))
-        std::fprintf(f, "# scene %s\n", meta->name);
+    if (src && src->name && !std::strpbrk(src->name, "\r\n"))
+        std::fprintf(f, "# scene %s\n", src->name);
     for (size_t i = 0; i + 2 < m.points.size(); i += 3)
         std::fprintf(f, "v %.9g %.9g %.9g\n", (double)m.points[i], (double)m.points[i + 1],
                      (double)m.points[i + 2]);
@@ -150,22 +150,22 @@ using namespace ivexp;
 
 extern "C" {
 
-int exp_vtu(const oct_tree_t *tree, const exp_meta_t *meta, const char *path,
+int exp_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *path,
             ivoct_error_t *err)
 {
-    return guard(err, [&] { vtk_write_vtu(tree, meta, path); });
+    return guard(err, [&] { vtk_write_vtu(tree, src, path); });
 }
 
-int exp_htg(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+int exp_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
             const char *path, ivoct_error_t *err)
 {
-    return guard(err, [&] { vtk_write_htg(tree, tape, meta, path); });
+    return guard(err, [&] { vtk_write_htg(tree, tape, src, path); });
 }
 
-int exp_vdb(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+int exp_vdb(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
             const char *path, ivoct_error_t *err)
 {
-    return guard(err, [&] { vdb_write(tree, tape, meta, path); });
+    return guard(err, [&] { vdb_write(tree, tape, src, path); });
 }
 
 int exp_mesh_supported(const char *path)
@@ -174,7 +174,7 @@ int exp_mesh_supported(const char *path)
     return !strcasecmp(e, ".vtp") || !strcasecmp(e, ".ply") || !strcasecmp(e, ".obj");
 }
 
-int exp_mesh(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+int exp_mesh(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
              const char *path, ivoct_error_t *err)
 {
     return guard(err, [&] {
@@ -184,11 +184,11 @@ int exp_mesh(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
                         ": unknown mesh format (the name must end in .vtp, .ply or .obj)");
         Mesh m = vdb_mesh(tree, tape);
         if (!strcasecmp(e, ".vtp"))
-            vtk_write_vtp(m, meta, path);
+            vtk_write_vtp(m, src, path);
         else if (!strcasecmp(e, ".ply"))
-            write_ply(m, meta, path);
+            write_ply(m, src, path);
         else
-            write_obj(m, meta, path);
+            write_obj(m, src, path);
     });
 }
 

@@ -26,16 +26,9 @@
 extern "C" {
 #endif
 
-/* What the scene was, stored in the files' metadata (field data in VTK files,
- * file and grid metadata in .vdb).  Any pointer may be NULL; the whole record
- * may be NULL. */
-typedef struct exp_meta {
-    const char *name;         /* scene name */
-    const char *f;            /* the expression of f as written */
-    size_t n_lets;            /* named subexpressions f may use (let.NAME = TEXT) */
-    char *const *let_names;
-    char *const *let_texts;
-} exp_meta_t;
+/* What the scene was (oct_source_t: its name, let.NAME definitions and f as
+ * written) is stored in the files' metadata: field data in VTK files, file and
+ * grid metadata in .vdb.  Any of its pointers may be NULL; src itself may be NULL. */
 
 /* Half width of the narrow band of the sdf grid, in voxels (OpenVDB's default). */
 #define EXP_SDF_HALF_WIDTH 3
@@ -47,7 +40,7 @@ typedef struct exp_meta {
  *   normal (3 x Float64, the slab's unit normal, 0 0 0 for a leaf without one;
  *           only when the tree has slabs),
  * field data scene, f, lets (strings), box (6 doubles), depth (Int32). */
-int exp_vtu(const oct_tree_t *tree, const exp_meta_t *meta, const char *path,
+int exp_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *path,
             ivoct_error_t *err);
 
 /* .htg: a HyperTreeGrid of the whole octree: the root split into a 2x2x2 grid
@@ -63,7 +56,7 @@ int exp_vtu(const oct_tree_t *tree, const exp_meta_t *meta, const char *path,
  *          3 surface leaf, 4 split),
  * and the field data of the .vtu.  Written in VTK's binary (not appended) mode:
  * VTK 9.1's appended mode writes .htg files it cannot read back. */
-int exp_htg(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+int exp_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
             const char *path, ivoct_error_t *err);
 
 /* .vdb: two FloatGrids on the voxels of the max depth D (voxel (i, j, k) is the
@@ -82,14 +75,14 @@ int exp_htg(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
  *            the box positive).
  * File and grid metadata: scene, expression, let.NAME, box_min, box_max
  * (vec3d), depth (int), creator. */
-int exp_vdb(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+int exp_vdb(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
             const char *path, ivoct_error_t *err);
 
 /* A triangle mesh of the surface, extracted by OpenVDB's volumeToMesh at
  * isovalue 0 from the sdf grid of exp_vdb (quads split in two), in world
  * coordinates.  The format follows the extension: .vtp (VTK PolyData), .ply
  * (binary little-endian), .obj.  Outward-facing triangles. */
-int exp_mesh(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+int exp_mesh(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
              const char *path, ivoct_error_t *err);
 
 /* Is path's extension one exp_mesh writes? */

@@ -68,19 +68,19 @@ struct Mesh {
 struct MetaItem {
     std::string key, value;
 };
-std::vector<MetaItem> meta_strings(const exp_meta_t *meta);
+std::vector<MetaItem> meta_strings(const oct_source_t *src);
 
 // vdb.cpp
-void vdb_write(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
                const char *path);
 Mesh vdb_mesh(const oct_tree_t *tree, const tape_t *tape);
 void vdb_info(const char *path, FILE *out);
 
 // vtk.cpp
-void vtk_write_vtu(const oct_tree_t *tree, const exp_meta_t *meta, const char *path);
-void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *path);
+void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
                    const char *path);
-void vtk_write_vtp(const Mesh &mesh, const exp_meta_t *meta, const char *path);
+void vtk_write_vtp(const Mesh &mesh, const oct_source_t *src, const char *path);
 void vtk_info(const char *path, FILE *out);
 
 // A tape workspace that frees itself.

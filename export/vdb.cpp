@@ -191,10 +191,10 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
     return g;
 }
 
-openvdb::MetaMap metadata(const oct_tree_t *t, const exp_meta_t *meta)
+openvdb::MetaMap metadata(const oct_tree_t *t, const oct_source_t *src)
 {
     openvdb::MetaMap m;
-    for (const MetaItem &it : meta_strings(meta))
+    for (const MetaItem &it : meta_strings(src))
         m.insertMeta(it.key, openvdb::StringMetadata(it.value));
     m.insertMeta("box_min", openvdb::Vec3DMetadata(Vec3d(t->box[0], t->box[2], t->box[4])));
     m.insertMeta("box_max", openvdb::Vec3DMetadata(Vec3d(t->box[1], t->box[3], t->box[5])));
@@ -204,14 +204,14 @@ openvdb::MetaMap metadata(const oct_tree_t *t, const exp_meta_t *meta)
 
 }  // namespace
 
-void vdb_write(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
                const char *path)
 {
     init();
     Frame fr(tree);
     FloatGrid::Ptr surface = surface_grid(tree, fr);
     FloatGrid::Ptr sdf = sdf_grid(tree, tape, fr, *surface);
-    openvdb::MetaMap m = metadata(tree, meta);
+    openvdb::MetaMap m = metadata(tree, src);
     openvdb::GridPtrVec grids{surface, sdf};
     for (auto &g : grids) {
         for (auto it = m.beginMeta(); it != m.endMeta(); ++it)

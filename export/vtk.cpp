@@ -140,9 +140,9 @@ iv_box_t cell_box(const oct_tree_t *t, int depth, uint32_t ix, uint32_t iy, uint
     return oct_cell_box(t->box, depth, ix, iy, iz);
 }
 
-void add_field_data(vtkFieldData *fd, const oct_tree_t *tree, const exp_meta_t *meta)
+void add_field_data(vtkFieldData *fd, const oct_tree_t *tree, const oct_source_t *src)
 {
-    for (const MetaItem &m : meta_strings(meta)) {
+    for (const MetaItem &m : meta_strings(src)) {
         vtkNew<vtkStringArray> a;
         a->SetName(m.key.c_str());
         a->InsertNextValue(m.value);
@@ -190,7 +190,7 @@ struct Corner {
 }  // namespace
 
 // ---- .vtu -----------------------------------------------------------------------------
-void vtk_write_vtu(const oct_tree_t *tree, const exp_meta_t *meta, const char *path)
+void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *path)
 {
     const int D = tree->depth;
     const size_t n = tree->n_leaves;
@@ -268,7 +268,7 @@ void vtk_write_vtu(const oct_tree_t *tree, const exp_meta_t *meta, const char *p
         cd->AddArray(normal);
     }
     cd->SetActiveScalars("depth");
-    add_field_data(ug->GetFieldData(), tree, meta);
+    add_field_data(ug->GetFieldData(), tree, src);
 
     vtkNew<vtkXMLUnstructuredGridWriter> w;
     w->SetDataModeToAppended();
@@ -322,7 +322,7 @@ struct HtgBuilder {
 
 }  // namespace
 
-void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t *meta,
+void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
                    const char *path)
 {
     vtkNew<vtkHyperTreeGrid> htg;
@@ -433,7 +433,7 @@ void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t 
     cd->AddArray(f_hi);
     cd->AddArray(surf);
     cd->AddArray(cls);
-    add_field_data(htg->GetFieldData(), tree, meta);
+    add_field_data(htg->GetFieldData(), tree, src);
 
     vtkNew<vtkXMLHyperTreeGridWriter> w;
     w->SetDataModeToBinary();  // appended mode in VTK 9.1 writes files it cannot read
@@ -441,7 +441,7 @@ void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const exp_meta_t 
 }
 
 // ---- .vtp -----------------------------------------------------------------------------
-void vtk_write_vtp(const Mesh &mesh, const exp_meta_t *meta, const char *path)
+void vtk_write_vtp(const Mesh &mesh, const oct_source_t *src, const char *path)
 {
     const vtkIdType np = (vtkIdType)(mesh.points.size() / 3), nt = (vtkIdType)(mesh.tris.size() / 3);
     vtkNew<vtkFloatArray> coords;
@@ -462,7 +462,7 @@ void vtk_write_vtp(const Mesh &mesh, const exp_meta_t *meta, const char *path)
     vtkNew<vtkPolyData> pd;
     pd->SetPoints(points);
     pd->SetPolys(polys);
-    for (const MetaItem &m : meta_strings(meta)) {
+    for (const MetaItem &m : meta_strings(src)) {
         vtkNew<vtkStringArray> a;
         a->SetName(m.key.c_str());
         a->InsertNextValue(m.value);

@@ -270,14 +270,8 @@ static int check_params(const tape_t *t, const double box[6], const oct_params_t
         ivoct_error_set(err, "no expression to build");
         return -1;
     }
-    if (p->depth < 0 || p->depth > OCT_MAX_DEPTH) {
-        ivoct_error_set(err, "depth %d out of range 0..%d", p->depth, OCT_MAX_DEPTH);
+    if (oct_params_check(p, err))
         return -1;
-    }
-    if (!(p->refine >= 0) || (p->refine > 0 && !(p->tests & OCT_TEST_ILIE))) {
-        ivoct_error_set(err, "refine needs the ilie test and a tolerance >= 0");
-        return -1;
-    }
     for (int k = 0; k < 3; k++)
         if (!isfinite(box[2 * k]) || !isfinite(box[2 * k + 1]) || box[2 * k] > box[2 * k + 1]) {
             ivoct_error_set(err, "box: bad %c range [%g, %g]", "xyz"[k], box[2 * k],

@@ -36,7 +36,7 @@ extern "C" {
 
 #define OCT_MAX_DEPTH 21 /* 3 * 21 = 63 bits of Morton code */
 
-/* The tests of the chain (same bits as scene.h's SCENE_TEST_*). */
+/* The tests of the chain; by name: oct_tests_parse, oct_tests_format (below). */
 enum {
     OCT_TEST_INTERVAL = 1u << 0,
     OCT_TEST_LIPSCHITZ = 1u << 1,
@@ -200,6 +200,32 @@ int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
  * or corrupt file is an error, never a crash.  src may be NULL. */
 int oct_load(const char *path, oct_tree_t **tree, oct_source_t *src, ivoct_error_t *err);
 void oct_source_free(oct_source_t *src);
+
+/* ---- settings by name (params.c) ----------------------------------------------
+ * What scene files ([octree] depth, tests, refine) and the command line give.
+ * Test lists are written "interval, lipschitz, ilie": names separated by
+ * commas, blanks around them ignored. */
+
+#define OCT_DEFAULT_DEPTH 8
+
+/* depth OCT_DEFAULT_DEPTH, tests interval and lipschitz, refine 0 (off); every
+ * other field 0 (all cores, no memory limit, no progress callback). */
+void oct_params_default(oct_params_t *p);
+
+/* Parse a test list into a bitmask of OCT_TEST_* (a name given twice counts
+ * once).  Returns 0, or non-zero with *tests unchanged and err at the line and
+ * column of text (1-based; lines end at '\n') with what was expected:
+ * "unknown test 'foo'; expected interval, lipschitz or ilie". */
+int oct_tests_parse(const char *text, unsigned *tests, ivoct_error_t *err);
+
+/* The names of the bits of tests, cheapest first, joined by ", " into buf
+ * (never more than n bytes with the terminating NUL); returns buf. */
+char *oct_tests_format(unsigned tests, char *buf, size_t n);
+
+/* Whether depth, tests and refine make a build (what oct_build refuses as bad
+ * params, said for the user): 0, or non-zero with err set, e.g. "refine 0.1
+ * needs the ilie test". */
+int oct_params_check(const oct_params_t *p, ivoct_error_t *err);
 
 #ifdef __cplusplus
 }

@@ -34,19 +34,40 @@ int ray_camera_init(ray_camera_t *cam, const double eye[3], const double target[
                     ivoct_error_t *err)
 {
     memset(cam, 0, sizeof *cam);
-    for (int i = 0; i < 3; i++)
-        if (!isfinite(eye[i]) || !isfinite(target[i]) || !isfinite(up[i])) {
-            ivoct_error_set(err, "camera: eye, target and up must be finite");
-            return 1;
-        }
+    /* fov first: a scene's default eye is placed from it */
     if (!(fov_deg > 0 && fov_deg < 180)) {
-        ivoct_error_set(err, "camera: fov must be in (0, 180) degrees, got %g", fov_deg);
-        return 1;
+        ivoct_error_set(err, "camera: fov must be between 0 and 180 degrees (exclusive), got %g",
+                        fov_deg);
+        return RAY_CAMERA_BAD_FOV;
     }
     if (width < 1 || height < 1 || width > RAY_MAX_SIZE || height > RAY_MAX_SIZE) {
         ivoct_error_set(err, "camera: size %dx%d: width and height must be in [1, %d]", width,
                         height, RAY_MAX_SIZE);
-        return 1;
+        return RAY_CAMERA_BAD_SIZE;
+    }
+    double fwd[3];
+    for (int i = 0; i < 3; i++)
+        fwd[i] = target[i] - eye[i];
+    if (!isfinite(eye[0]) || !isfinite(eye[1]) || !isfinite(eye[2]) || !isfinite(target[0]) ||
+        !isfinite(target[1]) || !isfinite(target[2]) || !normalize3(fwd)) {
+        ivoct_error_set(err, "camera: eye and target must be distinct finite points");
+        return RAY_CAMERA_BAD_EYE;
+    }
+    if (!isfinite(up[0]) || !isfinite(up[1]) || !isfinite(up[2])) {
+        ivoct_error_set(err, "camera: up must be finite");
+        return RAY_CAMERA_BAD_UP;
+    }
+    double upn = sqrt(dot3(up, up));
+    if (!(upn > 0) || !isfinite(upn)) {
+        ivoct_error_set(err, "camera: up must be a non-zero vector");
+        return RAY_CAMERA_BAD_UP;
+    }
+    double right[3];
+    cross3(fwd, up, right);
+    /* |fwd x up| = |up| sin(angle): relative to |up|, so a short up vector is fine */
+    if (!(sqrt(dot3(right, right)) > 1e-9 * upn) || !normalize3(right)) {
+        ivoct_error_set(err, "camera: up is parallel to the view direction (target - eye)");
+        return RAY_CAMERA_BAD_UP;
     }
     memcpy(cam->eye, eye, sizeof cam->eye);
     memcpy(cam->target, target, sizeof cam->target);
@@ -54,20 +75,8 @@ int ray_camera_init(ray_camera_t *cam, const double eye[3], const double target[
     cam->fov = fov_deg;
     cam->width = width;
     cam->height = height;
-    for (int i = 0; i < 3; i++)
-        cam->fwd[i] = target[i] - eye[i];
-    if (!normalize3(cam->fwd)) {
-        ivoct_error_set(err, "camera: eye and target coincide");
-        return 1;
-    }
-    cross3(cam->fwd, up, cam->right);
-    /* |fwd x up| = |up| sin(angle): relative to |up|, so a short up vector is fine */
-    double upn = sqrt(dot3(up, up));
-    if (!(sqrt(dot3(cam->right, cam->right)) > 1e-9 * upn) || !normalize3(cam->right)) {
-        ivoct_error_set(err, "camera: up (%g %g %g) is zero or parallel to the view direction",
-                        up[0], up[1], up[2]);
-        return 1;
-    }
+    memcpy(cam->fwd, fwd, sizeof cam->fwd);
+    memcpy(cam->right, right, sizeof cam->right);
     cross3(cam->right, cam->fwd, cam->vup);
     normalize3(cam->vup);
     cam->tan_half = tan(fov_deg * (RAY_PI / 360.0));

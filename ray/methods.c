@@ -1,6 +1,7 @@
 /* ivoct ray — the root-finding methods: names, and the table of the rules
  * each one applies (roots_internal.h, ray_method_info_t).  The search
  * (search.c) asks a method's row what to do; a new method is a new row. */
+#include <stdio.h>
 #include <string.h>
 
 #include "../lipschitz/lipschitz.h"
@@ -45,6 +46,22 @@ int ray_method_parse(const char *name, ray_method_t *m)
             return 0;
         }
     return 1;
+}
+
+char *ray_method_list(char *buf, size_t n)
+{
+    if (!buf || n == 0)
+        return buf;
+    buf[0] = '\0';
+    size_t len = 0;
+    for (int m = 0; m < RAY_METHOD_COUNT; m++) {
+        const char *sep = m == 0 ? "" : m == RAY_METHOD_COUNT - 1 ? " or " : ", ";
+        int w = snprintf(buf + len, n - len, "%s%s", sep, METHODS[m].name);
+        if (w < 0 || (size_t)w >= n - len)
+            break;
+        len += (size_t)w;
+    }
+    return buf;
 }
 
 int ray_method_certified(ray_method_t m)

@@ -58,6 +58,10 @@ int ray_method_parse(const char *name, ray_method_t *m);
 /* Whether the method certifies its answers (all but sampling). */
 int ray_method_certified(ray_method_t m);
 
+/* The names for messages, "mitchell, newton, ..., lipschitz or sampling", into
+ * buf (never more than n bytes with the terminating NUL); returns buf. */
+char *ray_method_list(char *buf, size_t n);
+
 /* ---- camera -------------------------------------------------------------------- */
 
 #define RAY_MAX_SIZE 65536 /* largest width or height */
@@ -72,8 +76,17 @@ typedef struct ray_camera {
     double tan_half;
 } ray_camera_t;
 
-/* Set up a camera.  Errors: eye = target, up parallel to the view direction,
- * fov outside (0, 180), a size outside [1, RAY_MAX_SIZE], non-finite input. */
+/* What ray_camera_init refused: its non-zero return values, in the order of
+ * its checks. */
+enum {
+    RAY_CAMERA_BAD_FOV = 1, /* fov outside (0, 180) degrees */
+    RAY_CAMERA_BAD_SIZE,    /* width or height outside [1, RAY_MAX_SIZE] */
+    RAY_CAMERA_BAD_EYE,     /* eye or target not finite, or eye = target */
+    RAY_CAMERA_BAD_UP,      /* up not finite, zero, or parallel to target - eye */
+};
+
+/* Set up a camera: the one place cameras are checked.  Returns 0, or one of
+ * RAY_CAMERA_BAD_* with err saying what is wrong. */
 int ray_camera_init(ray_camera_t *cam, const double eye[3], const double target[3],
                     const double up[3], double fov_deg, int width, int height,
                     ivoct_error_t *err);

@@ -41,7 +41,7 @@ run 0 "-h" -- build -h
 run 2 "no scene" -- build && one_line_error "no scene"
 run 2 "unknown option" -- build "$SCENES/sphere.ini" --no-such-option && one_line_error "unknown option"
 grep -q -- "--no-such-option" "$TMP/err" || fail "unknown option: the message does not name it"
-run 2 "depth 22" -- build "$SCENES/sphere.ini" --depth 22 && one_line_error "depth 22"
+run 2 "depth 22" -- build "$SCENES/sphere.ini" --depth 22 && one_line_error "depth 22" "0 to 21"
 run 2 "depth -1" -- build "$SCENES/sphere.ini" --depth -1
 run 2 "depth abc" -- build "$SCENES/sphere.ini" --depth abc
 run 2 "depth 5x" -- build "$SCENES/sphere.ini" --depth 5x
@@ -67,6 +67,15 @@ if run 2 "scene error" -- build "$TMP/bad.ini" --depth 3; then
         || { fail "scene error: no file:line:col in '$(cat "$TMP/err")'"; }
 fi
 no_files "scene error" "$TMP"/*.csv
+
+# a depth beyond the octree's OCT_MAX_DEPTH (21) in the scene: an input error at its place
+sed 's/^depth .*/depth  = 22/' "$SCENES/sphere.ini" >"$TMP/deep.ini"
+if run 2 "depth-22 scene" -- build "$TMP/deep.ini" --cells "$TMP/deep.csv"; then
+    one_line_error "depth-22 scene" "deep.ini:9:10: " "from 0 to 21" "'22'"
+fi
+run 2 "depth-22 scene, --depth 3" -- build "$TMP/deep.ini" --depth 3 --quiet &&
+    one_line_error "depth-22 scene, --depth 3" "deep.ini:9:10: "
+no_files "depth-22 scene" "$TMP"/*.csv
 
 # ---- the memory budget: exit 1, a clear message, no output at all ----------------------
 if run 1 "--max-memory 1K" -- build "$SCENES/gumdrop.ini" --depth 6 --max-memory 1K \

@@ -61,12 +61,12 @@ static void test_threads(void **state)
         tu_load_scene(SCENES[i], &s);
         ivoct_error_t err;
         ivoct_error_clear(&err);
-        oct_source_t src = {s.name, s.n_lets, s.let_names, s.let_texts, s.f_text};
+        const oct_source_t *src = &s.source;
         double edge = fmax(s.box[1] - s.box[0], fmax(s.box[3] - s.box[2], s.box[5] - s.box[4]));
         /* the scene's tests (interval, lipschitz), then the whole chain with
          * ILIE slabs and early leaves */
         for (int chain = 0; chain < 2; chain++) {
-            unsigned tests = chain ? OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE : s.tests;
+            unsigned tests = chain ? OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE : s.octree.tests;
             double refine = chain ? 0.02 * edge : 0;
             unsigned char *first = NULL;
             size_t first_n = 0;
@@ -80,7 +80,7 @@ static void test_threads(void **state)
                 assert_int_equal(t->stats.threads, runs[r]);
                 char out[4200];
                 snprintf(out, sizeof out, "%s/%s-%zu.ivo", dir, SCENES[i], r);
-                if (oct_save(t, &src, out, &err) != 0)
+                if (oct_save(t, src, out, &err) != 0)
                     fail_msg("oct_save %s: %s", out, err.msg);
                 size_t n;
                 unsigned char *bytes = tu_read_file(out, &n);

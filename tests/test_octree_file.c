@@ -131,12 +131,12 @@ static unsigned char *saved_scene_ex(const char *name, int depth, int slabs, siz
     oct_tree_t *t = slabs ? build_ex(s.tape, s.box, depth, ALL_TESTS, 0.05)
                           : build(s.tape, s.box, depth);
     assert_int_equal(t->slabs != NULL, slabs);
-    oct_source_t src = {s.name, s.n_lets, s.let_names, s.let_texts, s.f_text};
+    const oct_source_t *src = &s.source;
     char path[128];
     tmp_path(path, sizeof path, "scene.ivo");
     ivoct_error_t err;
     ivoct_error_clear(&err);
-    assert_int_equal(oct_save(t, &src, path, &err), 0);
+    assert_int_equal(oct_save(t, src, path, &err), 0);
     unsigned char *p = tu_read_file(path, n);
     remove(path);
     oct_free(t);
@@ -391,16 +391,16 @@ static void test_round_trip(void **state)
         scene_t s;
         tu_load_scene(names[i], &s);
         oct_tree_t *t = build(s.tape, s.box, 4);
-        oct_source_t src = {s.name, s.n_lets, s.let_names, s.let_texts, s.f_text};
-        round_trip(t, &src);
+        const oct_source_t *src = &s.source;
+        round_trip(t, src);
         round_trip(t, NULL); /* no source: empty texts */
         printf("%-18s %u nodes, %u leaves, %zu lets: round trip exact\n", names[i], t->n_nodes,
-               t->n_leaves, s.n_lets);
+               t->n_leaves, s.source.n_lets);
         oct_free(t);
         /* with ILIE slabs, and leaves stopped early by refine */
         t = build_ex(s.tape, s.box, 4, ALL_TESTS, 0.1);
         assert_non_null(t->slabs);
-        round_trip(t, &src);
+        round_trip(t, src);
         oct_free(t);
         scene_free(&s);
     }

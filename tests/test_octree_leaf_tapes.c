@@ -155,7 +155,7 @@ static void render_both(const char *name)
     assert_int_equal(oct_build(sc.tape, sc.box, &p, &tree, &err), 0);
     int w = tu_sanitizer_build() ? 40 : 120, h = w * 3 / 4;
     ray_camera_t cam;
-    assert_int_equal(ray_camera_init(&cam, sc.eye, sc.target, sc.up, sc.fov, w, h, &err), 0);
+    assert_int_equal(ray_camera_init(&cam, sc.camera.eye, sc.camera.target, sc.camera.up, sc.camera.fov, w, h, &err), 0);
     oct_leaf_tapes_t *lt;
     assert_int_equal(oct_leaf_tapes_build(tree, sc.tape, ray_tape_margin(&cam, sc.box), &lt,
                                           &err),

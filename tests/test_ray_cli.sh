@@ -37,7 +37,7 @@ grep -q "render" <("$BIN" --help) && ok || fail "ivoct --help does not list rend
 run 2 "no scene" -- render && one_line_error "no scene"
 run 2 "unknown method" -- render "$S" --method newtonn --png "$TMP/o/x.png" &&
     one_line_error "unknown method" && grep -q "newtonn" "$TMP/err" && ok
-for bad in 0x5 5x 5 x5 abc 100000x2 -3x4 5x5x5 "4x 4"; do
+for bad in 0x5 5x 5 x5 abc 100000x2 65537x4 4x65537 -3x4 5x5x5 "4x 4"; do
     run 2 "--size $bad" -- render "$S" --size "$bad" --png "$TMP/o/x.png" &&
         one_line_error "--size $bad"
 done
@@ -60,6 +60,12 @@ printf '[surface]\nf = x\nbox = -1 1 -1 1 -1 1\n[camera]\neye = 0 0 5\ntarget = 
     >"$TMP/badcam.ini"
 run 2 "up parallel to the view" -- render "$TMP/badcam.ini" --png "$TMP/o/x.png" &&
     one_line_error "bad camera" && grep -q "parallel" "$TMP/err" && ok
+# a depth beyond the octree's OCT_MAX_DEPTH (21) in the scene: an input error at its place
+sed 's/^depth .*/depth  = 22/' "$S" >"$TMP/deep.ini"
+run 2 "depth-22 scene" -- render "$TMP/deep.ini" --size 8x8 --png "$TMP/o/x.png" &&
+    one_line_error "depth-22 scene" "deep.ini:9:10: " "from 0 to 21" "'22'"
+run 2 "depth-22 scene, --no-octree" -- render "$TMP/deep.ini" --no-octree --size 8x8 \
+    --png "$TMP/o/x.png" && one_line_error "depth-22 scene, --no-octree" "deep.ini:9:10: "
 no_outputs "usage errors"
 
 # ---- unwritable outputs: exit 1, nothing written ------------------------------------------

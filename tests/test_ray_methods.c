@@ -77,17 +77,14 @@ static int image_size(void)
  * sanitizer build). */
 static oct_tree_t *scene_tree(const scene_t *s)
 {
-    oct_params_t p;
-    memset(&p, 0, sizeof p);
-    p.depth = tu_scale() < 1 && s->depth > 6 ? 6 : s->depth;
-    p.tests = s->tests;
-    p.refine = s->refine;
+    oct_params_t p = s->octree;
+    p.depth = tu_scale() < 1 && p.depth > 6 ? 6 : p.depth;
     p.threads = 2;
     oct_tree_t *t = NULL;
     ivoct_error_t err;
     ivoct_error_clear(&err);
     if (oct_build(s->tape, s->box, &p, &t, &err))
-        fail_msg("%s: oct_build: %s", s->name, err.msg);
+        fail_msg("%s: oct_build: %s", s->source.name, err.msg);
     return t;
 }
 
@@ -158,7 +155,7 @@ static void test_methods_against_reference(void **state)
         ivoct_error_t err;
         ivoct_error_clear(&err);
         ray_camera_t cam;
-        assert_int_equal(ray_camera_init(&cam, s.eye, s.target, s.up, s.fov, size, size, &err),
+        assert_int_equal(ray_camera_init(&cam, s.camera.eye, s.camera.target, s.camera.up, s.camera.fov, size, size, &err),
                          0);
         rck_ref_t R;
         rck_reference(s.tape, s.box, &cam, &R);

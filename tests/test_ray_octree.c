@@ -477,7 +477,7 @@ static void render(const scene_t *s, const oct_tree_t *tree, int use_slabs, int 
 {
     ivoct_error_t err;
     ray_camera_t cam;
-    assert_int_equal(ray_camera_init(&cam, s->eye, s->target, s->up, s->fov, size, size, &err),
+    assert_int_equal(ray_camera_init(&cam, s->camera.eye, s->camera.target, s->camera.up, s->camera.fov, size, size, &err),
                      0);
     assert_int_equal(ray_image_alloc(img, size, size, &err), 0);
     ray_box_source_t bs;
@@ -566,7 +566,7 @@ static void test_same_image(void **state)
     for (size_t k = 0; k < TU_N_COMPARISON; k++) {
         scene_t s;
         tu_load_scene(tu_comparison_surfaces[k], &s);
-        int depth = tu_scale() < 1 && s.depth > 6 ? 6 : s.depth;
+        int depth = tu_scale() < 1 && s.octree.depth > 6 ? 6 : s.octree.depth;
         oct_tree_t *tree[NSRC] = {NULL, build(&s, depth, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ),
                                   build(&s, depth, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ |
                                                        OCT_TEST_ILIE)};
@@ -628,7 +628,7 @@ static void test_threads(void **state)
     for (int k = 0; k < 2; k++) {
         scene_t s;
         tu_load_scene(names[k], &s);
-        oct_tree_t *t = build(&s, s.depth, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE);
+        oct_tree_t *t = build(&s, s.octree.depth, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE);
         for (int m = 0; m < RAY_METHOD_COUNT; m++) {
             ray_image_t a, b;
             ray_stats_t sa, sb;
@@ -673,10 +673,10 @@ static void test_roots_on_faces(void **state)
         assert_int_equal(scene_from_expr(fs[f], box, &s, &err), 0);
         oct_tree_t *t = build(&s, 4, OCT_TEST_INTERVAL | OCT_TEST_ILIE);
         for (size_t e = 0; e < sizeof eyes / sizeof eyes[0]; e++) {
-            memcpy(s.eye, eyes[e], sizeof s.eye);
-            memcpy(s.target, targets[e], sizeof s.target);
-            memcpy(s.up, ups[e], sizeof s.up);
-            s.fov = 40;
+            memcpy(s.camera.eye, eyes[e], sizeof s.camera.eye);
+            memcpy(s.camera.target, targets[e], sizeof s.camera.target);
+            memcpy(s.camera.up, ups[e], sizeof s.camera.up);
+            s.camera.fov = 40;
             for (int m = 0; m < RAY_METHOD_COUNT; m++) {
                 if (m == RAY_SAMPLING)
                     continue;

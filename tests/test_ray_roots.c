@@ -76,7 +76,7 @@ static void test_roots_against_oracle(void **state)
         ivoct_error_clear(&err);
         ray_camera_t cam;
         assert_int_equal(
-            ray_camera_init(&cam, s.eye, s.target, s.up, s.fov, size, size, &err), 0);
+            ray_camera_init(&cam, s.camera.eye, s.camera.target, s.camera.up, s.camera.fov, size, size, &err), 0);
         rck_ref_t R;
         rck_reference(s.tape, s.box, &cam, &R);
         if (R.n_amb * 100 >= npix)

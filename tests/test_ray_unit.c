@@ -286,7 +286,7 @@ static void render(const scene_t *s, int w, int h, ray_method_t m, int threads,
 {
     ivoct_error_t err;
     ray_camera_t cam;
-    assert_int_equal(ray_camera_init(&cam, s->eye, s->target, s->up, s->fov, w, h, &err), 0);
+    assert_int_equal(ray_camera_init(&cam, s->camera.eye, s->camera.target, s->camera.up, s->camera.fov, w, h, &err), 0);
     assert_int_equal(ray_image_alloc(img, w, h, &err), 0);
     ray_render_opts_t o;
     ray_render_opts_default(&o);
@@ -357,7 +357,7 @@ static void test_threads_identical(void **state)
                 continue;
             }
             double p[3];
-            ray_point(s.eye, a.dir + 3 * i, a.t[i], p);
+            ray_point(s.camera.eye, a.dir + 3 * i, a.t[i], p);
             assert_memory_equal(p, a.point + 3 * i, sizeof p);
             assert_true(fabs(dot(a.normal + 3 * i, a.normal + 3 * i) - 1) < 1e-12);
         }
@@ -453,7 +453,7 @@ static void test_writers(void **state)
     assert_true(st.hits > 0 && st.hits < (uint64_t)(W * H));
     ray_camera_t cam;
     ivoct_error_t err;
-    assert_int_equal(ray_camera_init(&cam, s.eye, s.target, s.up, s.fov, W, H, &err), 0);
+    assert_int_equal(ray_camera_init(&cam, s.camera.eye, s.camera.target, s.camera.up, s.camera.fov, W, H, &err), 0);
 
     FILE *f = tmpfile();
     assert_non_null(f);
@@ -466,7 +466,7 @@ static void test_writers(void **state)
     /* "newton-ah" as a String array: the characters as numbers, then 0 */
     assert_non_null(strstr(xml, ">110 101 119 116 111 110 45 97 104 0</Array>"));
     char eye[128];
-    snprintf(eye, sizeof eye, "%.17g %.17g %.17g</DataArray>", s.eye[0], s.eye[1], s.eye[2]);
+    snprintf(eye, sizeof eye, "%.17g %.17g %.17g</DataArray>", s.camera.eye[0], s.camera.eye[1], s.camera.eye[2]);
     assert_non_null(strstr(xml, eye));
     static const struct {
         const char *name;

@@ -128,13 +128,13 @@ static void test_full_scene(void **state)
             "method = mrfro-newton\n",
             &s);
     assert_non_null(s.path);
-    assert_string_equal(s.name, "Gumdrop   torus");
-    assert_int_equal(s.n_lets, 2);
-    assert_string_equal(s.let_names[0], "r2");
-    assert_string_equal(s.let_texts[0], "y^2 + z^2");
-    assert_string_equal(s.let_names[1], "k");
-    assert_string_equal(s.let_texts[1], "0.5 * 0");
-    assert_string_equal(s.f_text, "4*(x^4 + r2^2) + 17*x^2*r2\n- 20*(x^2 + y^2 + z^2 + k)\n+ 17");
+    assert_string_equal(s.source.name, "Gumdrop   torus");
+    assert_int_equal(s.source.n_lets, 2);
+    assert_string_equal(s.source.let_names[0], "r2");
+    assert_string_equal(s.source.let_texts[0], "y^2 + z^2");
+    assert_string_equal(s.source.let_names[1], "k");
+    assert_string_equal(s.source.let_texts[1], "0.5 * 0");
+    assert_string_equal(s.source.f, "4*(x^4 + r2^2) + 17*x^2*r2\n- 20*(x^2 + y^2 + z^2 + k)\n+ 17");
     assert_non_null(s.tape);
     assert_true(s.tape->n > 5);
     /* box bounds are rounded outward when the decimal is not a double */
@@ -142,16 +142,16 @@ static void test_full_scene(void **state)
     /* the double nearest 0.3 is below 0.3: zmax is the next one up */
     assert_true(s.box[4] == nextafter(-0.3, -1));
     assert_true(s.box[5] == nextafter(0.3, 1));
-    assert_int_equal(s.depth, 10);
-    assert_int_equal(s.tests, SCENE_TEST_INTERVAL | SCENE_TEST_LIPSCHITZ | SCENE_TEST_ILIE);
-    assert_true(s.refine == 1e-3);
-    assert_vec(s.eye, 5, 4, 3);
-    assert_vec(s.target, 0, 0, 0.5);
-    assert_vec(s.up, 0, 1, 0);
-    assert_true(s.fov == 45);
-    assert_int_equal(s.width, 640);
-    assert_int_equal(s.height, 480);
-    assert_string_equal(s.method, "mrfro-newton");
+    assert_int_equal(s.octree.depth, 10);
+    assert_int_equal(s.octree.tests, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE);
+    assert_true(s.octree.refine == 1e-3);
+    assert_vec(s.camera.eye, 5, 4, 3);
+    assert_vec(s.camera.target, 0, 0, 0.5);
+    assert_vec(s.camera.up, 0, 1, 0);
+    assert_true(s.camera.fov == 45);
+    assert_int_equal(s.camera.width, 640);
+    assert_int_equal(s.camera.height, 480);
+    assert_string_equal(ray_method_name(s.method), "mrfro-newton");
     scene_free(&s);
     assert_null(s.tape);
 }
@@ -161,23 +161,23 @@ static void test_defaults(void **state)
     (void)state;
     scene_t s;
     load_ok("my-sphere.ini", "[surface]\nf = x^2 + y^2 + z^2 - 1\nbox = 0 2 -1 1 -3 3\n", &s);
-    assert_string_equal(s.name, "my-sphere");
-    assert_int_equal(s.n_lets, 0);
-    assert_null(s.let_names);
-    assert_int_equal(s.depth, 8);
-    assert_int_equal(s.tests, SCENE_TEST_INTERVAL | SCENE_TEST_LIPSCHITZ);
-    assert_true(s.refine == 0);
-    assert_vec(s.target, 1, 0, 0);
-    assert_vec(s.up, 0, 0, 1);
-    assert_true(s.fov == 30);
-    assert_int_equal(s.width, 300);
-    assert_int_equal(s.height, 300);
-    assert_string_equal(s.method, "newton-ah");
+    assert_string_equal(s.source.name, "my-sphere");
+    assert_int_equal(s.source.n_lets, 0);
+    assert_null(s.source.let_names);
+    assert_int_equal(s.octree.depth, 8);
+    assert_int_equal(s.octree.tests, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ);
+    assert_true(s.octree.refine == 0);
+    assert_vec(s.camera.target, 1, 0, 0);
+    assert_vec(s.camera.up, 0, 0, 1);
+    assert_true(s.camera.fov == 30);
+    assert_int_equal(s.camera.width, 300);
+    assert_int_equal(s.camera.height, 300);
+    assert_string_equal(ray_method_name(s.method), "newton-ah");
     /* the eye looks at the centre from (1, 0.8, 0.6), and the box's
      * circumscribed sphere fits in the field of view */
     double d[3], len = 0;
     for (int i = 0; i < 3; i++) {
-        d[i] = s.eye[i] - s.target[i];
+        d[i] = s.camera.eye[i] - s.camera.target[i];
         len += d[i] * d[i];
     }
     len = sqrt(len);
@@ -189,21 +189,28 @@ static void test_defaults(void **state)
 
     /* eye given, target defaulted to the box centre; a name with no .ini */
     load_ok("plain", "[surface]\nf = x\nbox = -1 1 -1 1 -1 1\n[camera]\neye = 3 0 0\n", &s);
-    assert_string_equal(s.name, "plain");
-    assert_vec(s.eye, 3, 0, 0);
-    assert_vec(s.target, 0, 0, 0);
+    assert_string_equal(s.source.name, "plain");
+    assert_vec(s.camera.eye, 3, 0, 0);
+    assert_vec(s.camera.target, 0, 0, 0);
     scene_free(&s);
 
     /* a name on a continuation line */
     load_ok("n.ini", "[surface]\nname =\n   My   surface  \n   again ; comment\nf = x\n" BOX, &s);
-    assert_string_equal(s.name, "My   surface again");
+    assert_string_equal(s.source.name, "My   surface again");
+    scene_free(&s);
+
+    /* the largest depth and size: the octree's and the renderer's limits */
+    load_ok("max.ini", "[surface]\nf = x\n" BOX "[octree]\ndepth = 21\n[camera]\nsize = 65536 1\n", &s);
+    assert_int_equal(s.octree.depth, OCT_MAX_DEPTH);
+    assert_int_equal(s.camera.width, RAY_MAX_SIZE);
+    assert_int_equal(s.camera.height, 1);
     scene_free(&s);
 
     /* CRLF line ends, a byte order mark, ':' as separator, a point box */
     load_ok("crlf.ini", "\xEF\xBB\xBF[surface]\r\nf: x + y\r\nbox = 1 1 2 2 3 3\r\n", &s);
-    assert_string_equal(s.f_text, "x + y");
-    assert_vec(s.target, 1, 2, 3);
-    assert_true(s.eye[0] > 1);
+    assert_string_equal(s.source.f, "x + y");
+    assert_vec(s.camera.target, 1, 2, 3);
+    assert_true(s.camera.eye[0] > 1);
     scene_free(&s);
     scene_free(NULL);
 }
@@ -287,11 +294,13 @@ static void test_errors(void **state)
          "'box' from line 3; a key must start its line)"},
         /* other values */
         {"[surface]\nname =\nf = x\n" BOX, 2, 7, "name: expected a name"},
-        {"[surface]\nf = x\n" BOX "[octree]\ndepth = 25\n", 5, 9, "depth: expected an integer from 0 to 24, found '25'"},
-        {"[surface]\nf = x\n" BOX "[octree]\ndepth = 8.5\n", 5, 9, "depth: expected an integer from 0 to 24, found '8.5'"},
-        {"[surface]\nf = x\n" BOX "[octree]\ndepth = -1\n", 5, 9, "depth: expected an integer from 0 to 24, found '-1'"},
+        /* the octree's limit, OCT_MAX_DEPTH = 21 */
+        {"[surface]\nf = x\n" BOX "[octree]\ndepth = 22\n", 5, 9, "depth: expected an integer from 0 to 21, found '22'"},
+        {"[surface]\nf = x\n" BOX "[octree]\ndepth = 25\n", 5, 9, "depth: expected an integer from 0 to 21, found '25'"},
+        {"[surface]\nf = x\n" BOX "[octree]\ndepth = 8.5\n", 5, 9, "depth: expected an integer from 0 to 21, found '8.5'"},
+        {"[surface]\nf = x\n" BOX "[octree]\ndepth = -1\n", 5, 9, "depth: expected an integer from 0 to 21, found '-1'"},
         {"[surface]\nf = x\n" BOX "[octree]\ndepth = 99999999999999999999\n", 5, 9,
-         "depth: expected an integer from 0 to 24, found '99999999999999999999'"},
+         "depth: expected an integer from 0 to 21, found '99999999999999999999'"},
         {"[surface]\nf = x\n" BOX "[octree]\ntests = interval, foo\n", 5, 19,
          "tests: unknown test 'foo'; expected interval, lipschitz or ilie"},
         {"[surface]\nf = x\n" BOX "[octree]\ntests =\n", 5, 8, "tests: expected a test name: interval, lipschitz or ilie"},
@@ -303,13 +312,16 @@ static void test_errors(void **state)
          "or sampling"},
         {"[surface]\nf = x\n" BOX "[render]\nmethod = newton mitchell\n", 5, 17,
          "method: expected one method name, found more"},
-        {"[surface]\nf = x\n" BOX "[camera]\nsize = 300 20000\n", 5, 12,
-         "size: expected an integer from 1 to 16384, found '20000'"},
-        {"[surface]\nf = x\n" BOX "[camera]\nsize = 0 300\n", 5, 8, "size: expected an integer from 1 to 16384, found '0'"},
+        /* the renderer's limit, RAY_MAX_SIZE = 65536 */
+        {"[surface]\nf = x\n" BOX "[camera]\nsize = 300 65537\n", 5, 12,
+         "size: expected an integer from 1 to 65536, found '65537'"},
+        {"[surface]\nf = x\n" BOX "[camera]\nsize = 0 300\n", 5, 8, "size: expected an integer from 1 to 65536, found '0'"},
         {"[surface]\nf = x\n" BOX "[camera]\nsize = 300\n", 5, 11,
          "size takes 2 integers (width height in pixels), found 1"},
         {"[surface]\nf = x\n" BOX "[camera]\nfov = 180\n", 5, 7,
-         "fov: expected an angle in degrees between 0 and 180 (exclusive)"},
+         "camera: fov must be between 0 and 180 degrees (exclusive), got 180"},
+        {"[surface]\nf = x\n" BOX "[camera]\nfov = 0\n", 5, 7,
+         "camera: fov must be between 0 and 180 degrees (exclusive), got 0"},
         {"[surface]\nf = x\n" BOX "[camera]\neye = 1 2\n", 5, 10, "eye takes 3 numbers (x y z), found 2"},
         {"[surface]\nf = x\n" BOX "[camera]\neye = 0 0 5\n", 5, 7,
          "camera: up is parallel to the view direction (target - eye)"},
@@ -415,12 +427,12 @@ static void test_from_expr(void **state)
     ivoct_error_t err;
     assert_int_equal(scene_from_expr("x^2 + y^2 - z", box, &s, &err), 0);
     assert_null(s.path);
-    assert_string_equal(s.f_text, "x^2 + y^2 - z");
-    assert_non_null(s.name);
+    assert_string_equal(s.source.f, "x^2 + y^2 - z");
+    assert_non_null(s.source.name);
     assert_non_null(s.tape);
-    assert_int_equal(s.depth, 8);
-    assert_string_equal(s.method, "newton-ah");
-    assert_vec(s.target, 0, 0, 2);
+    assert_int_equal(s.octree.depth, 8);
+    assert_string_equal(ray_method_name(s.method), "newton-ah");
+    assert_vec(s.camera.target, 0, 0, 2);
     assert_true(memcmp(s.box, box, sizeof box) == 0);
     scene_free(&s);
 
@@ -443,12 +455,12 @@ static void test_tests_list(void **state)
     unsigned m = 0;
     ivoct_error_t err;
     ivoct_error_clear(&err);
-    assert_int_equal(scene_parse_tests("interval, lipschitz", &m, &err), 0);
-    assert_int_equal(m, SCENE_TEST_INTERVAL | SCENE_TEST_LIPSCHITZ);
-    assert_int_equal(scene_parse_tests(" ilie ", &m, &err), 0);
-    assert_int_equal(m, SCENE_TEST_ILIE);
-    assert_int_equal(scene_parse_tests("ilie,interval,ilie", &m, &err), 0);
-    assert_int_equal(m, SCENE_TEST_ILIE | SCENE_TEST_INTERVAL);
+    assert_int_equal(oct_tests_parse("interval, lipschitz", &m, &err), 0);
+    assert_int_equal(m, OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ);
+    assert_int_equal(oct_tests_parse(" ilie ", &m, &err), 0);
+    assert_int_equal(m, OCT_TEST_ILIE);
+    assert_int_equal(oct_tests_parse("ilie,interval,ilie", &m, &err), 0);
+    assert_int_equal(m, OCT_TEST_ILIE | OCT_TEST_INTERVAL);
     static const struct {
         const char *text;
         int col;
@@ -463,24 +475,24 @@ static void test_tests_list(void **state)
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         m = 12345;
-        assert_int_not_equal(scene_parse_tests(bad[i].text, &m, &err), 0);
+        assert_int_not_equal(oct_tests_parse(bad[i].text, &m, &err), 0);
         assert_int_equal(m, 12345);
         assert_int_equal(err.line, 1);
         assert_int_equal(err.col, bad[i].col);
         assert_string_equal(err.msg, bad[i].msg);
     }
     char buf[64];
-    assert_string_equal(scene_tests_string(7, buf, sizeof buf), "interval, lipschitz, ilie");
-    assert_string_equal(scene_tests_string(SCENE_TEST_LIPSCHITZ | SCENE_TEST_ILIE, buf, sizeof buf),
+    assert_string_equal(oct_tests_format(7, buf, sizeof buf), "interval, lipschitz, ilie");
+    assert_string_equal(oct_tests_format(OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE, buf, sizeof buf),
                         "lipschitz, ilie");
-    assert_string_equal(scene_tests_string(0, buf, sizeof buf), "");
+    assert_string_equal(oct_tests_format(0, buf, sizeof buf), "");
     /* round trip */
-    assert_int_equal(scene_parse_tests(scene_tests_string(5, buf, sizeof buf), &m, &err), 0);
+    assert_int_equal(oct_tests_parse(oct_tests_format(5, buf, sizeof buf), &m, &err), 0);
     assert_int_equal(m, 5);
     /* a short buffer is never overrun */
     char small[12];
     memset(small, 'z', sizeof small);
-    scene_tests_string(7, small, 10);
+    oct_tests_format(7, small, 10);
     assert_true(strlen(small) < 10);
     assert_int_equal(small[10], 'z');
 }

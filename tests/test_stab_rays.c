@@ -370,8 +370,8 @@ static void scene_case(const char *scene)
     tu_load_scene(scene, &s);
     ray_case_t rc = {.name = scene, .tape = s.tape, .oracle = s.tape, .depth = 7};
     memcpy(rc.box, s.box, sizeof rc.box);
-    memcpy(rc.eye, s.eye, sizeof rc.eye);
-    memcpy(rc.target, s.target, sizeof rc.target);
+    memcpy(rc.eye, s.camera.eye, sizeof rc.eye);
+    memcpy(rc.target, s.camera.target, sizeof rc.target);
     check_camera(&rc);
     scene_free(&s);
 }

@@ -57,6 +57,13 @@ else
     bash "$here/ray.sh" --build "$build" --reps 1
 fi
 
+part "leaf tapes against the scene's tape in every leaf (bench/leaf_tapes.sh)"
+if [ "$quick" = 1 ]; then
+    bash "$here/leaf_tapes.sh" --build "$build" --size 100x100 --reps 1 --out leaf_tapes-quick
+else
+    bash "$here/leaf_tapes.sh" --build "$build"
+fi
+
 part "render time against hit error, and the OpenVDB level-set baseline (bench/ray_error.sh)"
 if [ -x "$build/bench/ivoct_ray_error" ]; then
     # one repetition (ray.sh above has timed the same renders already)

@@ -137,6 +137,8 @@ typedef struct octree_info {
     const oct_tree_t *tree; /* NULL: --no-octree */
     const char *file;       /* --octree F.ivo, else NULL (built here) */
     double build_time_s;    /* when built here */
+    const oct_leaf_tapes_t *leaf_tapes; /* NULL: every leaf searched with the scene's tape */
+    double leaf_tapes_time_s;
 } octree_info_t;
 
 static int write_stats(const char *path, const scene_t *s, ray_method_t method, int width,
@@ -178,6 +180,13 @@ static int write_stats(const char *path, const scene_t *s, ray_method_t method, 
         if (!oi->file) {
             fputs(",\n  \"build_time_s\": ", o);
             cli_json_double(o, oi->build_time_s);
+        }
+        fprintf(o, ",\n  \"leaf_tapes\": %s", oi->leaf_tapes ? "true" : "false");
+        if (oi->leaf_tapes) {
+            fprintf(o, ",\n  \"leaf_tapes_stored\": %zu,\n  \"leaf_tapes_clauses\": %zu,\n"
+                       "  \"leaf_tapes_time_s\": ",
+                    oi->leaf_tapes->n_tapes, oi->leaf_tapes->n_clauses);
+            cli_json_double(o, oi->leaf_tapes_time_s);
         }
     }
     fputs("\n}\n", o);
@@ -302,7 +311,7 @@ int cmd_render(int argc, char **argv)
     ray_image_t img = {0};
     oct_tree_t *tree = NULL;
     oct_leaf_tapes_t *leaf_tapes = NULL;
-    octree_info_t oi = {NULL, octree, 0.0};
+    octree_info_t oi = {.file = octree};
     if (!method_given)
         method = s.method;
     /* the scene's camera, at the size of --size */
@@ -371,13 +380,15 @@ int cmd_render(int argc, char **argv)
     ray_source_t src = tree ? ray_octree_source(&trav, tree) : ray_box_source(&bs, s.box);
     if (tree && !no_leaf_tapes && tape_has_choices(s.tape)) {
         /* the margin of the camera covers every turntable view of it */
+        double t0 = omp_get_wtime();
         if (oct_leaf_tapes_build(tree, s.tape, ray_tape_margin(&cam0, s.box), &leaf_tapes,
                                  &err)) {
             fprintf(stderr, "ivoct render: %s\n", err.msg);
             rc = EXIT_RUNTIME;
             goto out;
         }
-        trav.tapes = leaf_tapes;
+        oi.leaf_tapes_time_s = omp_get_wtime() - t0;
+        oi.leaf_tapes = trav.tapes = leaf_tapes;
     }
     ray_render_opts_t ro;
     ray_render_opts_default(&ro);

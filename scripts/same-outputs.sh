@@ -6,7 +6,9 @@
 # stats without their timing and memory keys, which vary from run to run).
 #
 # Usage: scripts/same-outputs.sh IVOCT_A IVOCT_B [SCENE...]
-#   (default: every scenes/*.ini; depth 6, images 96x72; WORK keeps the files)
+#   (default: every scenes/*.ini; depth 6, images 96x72; WORK keeps the files;
+#   RENDER_ARGS_A / RENDER_ARGS_B: extra options for one side's renders, e.g. an
+#   option the other binary does not have)
 # Exit 0 when every output is identical, 1 otherwise (the differing files listed).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -23,9 +25,9 @@ work=${WORK:-$(mktemp -d)}
 methods=(mitchell newton newton-ah mrfro mrfro-newton lipschitz sampling)
 
 # Keys of the stats files that measure the run (or name its files) rather
-# than its result.
+# than its result, and the leaf-tape keys (written by newer binaries only).
 strip_timing() {
-    grep -v -E '"(time_s|build_time_s|render_time_s|peak_bytes|threads|octree_source)"' "$1" || true
+    grep -v -E '"(time_s|build_time_s|render_time_s|peak_bytes|threads|octree_source|leaf_tapes[a-z_]*)"' "$1" || true
 }
 
 # An OpenVDB file names itself with a random UUID in its header.
@@ -44,8 +46,8 @@ run() { # DIR NAME BIN ARGS...
     rm -f "$dir/$name.err"
 }
 
-run_all() { # BIN DIR
-    local bin=$1 dir=$2 s n m
+run_all() { # BIN DIR EXTRA-RENDER-ARGS
+    local bin=$1 dir=$2 extra=$3 s n m
     mkdir -p "$dir"
     for s in "${scenes[@]}"; do
         n=$(basename "$s" .ini)
@@ -58,7 +60,7 @@ run_all() { # BIN DIR
             --save "$dir/$n.refine.ivo" --cells "$dir/$n.refine.csv" \
             --stats "$dir/$n.refine.json"
         for m in "${methods[@]}"; do
-            local render=("$bin" render "$s" --method "$m" --threads 2 --quiet)
+            local render=("$bin" render "$s" --method "$m" --threads 2 --quiet $extra)
             run "$dir" "$n.$m" "${render[@]}" --octree "$dir/$n.ivo" --size 96x72 \
                 --png "$dir/$n.$m.png" --vti "$dir/$n.$m.vti" --stats "$dir/$n.$m.json"
             run "$dir" "$n.$m.box" "${render[@]}" --no-octree --size 48x36 \
@@ -67,8 +69,8 @@ run_all() { # BIN DIR
     done
 }
 
-run_all "$a" "$work/a"
-run_all "$b" "$work/b"
+run_all "$a" "$work/a" "${RENDER_ARGS_A:-}"
+run_all "$b" "$work/b" "${RENDER_ARGS_B:-}"
 
 differ=0 files=0
 if ! cmp -s <(ls "$work/a") <(ls "$work/b"); then

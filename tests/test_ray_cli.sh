@@ -294,4 +294,37 @@ EOF
     no_outputs "--octree errors"
 fi
 
+# ---- leaf tapes: a scene with min (the 64-sphere union) and one without ------------------
+C=$TMP/csg.ini
+sed 's/^depth .*/depth  = 6/' "$SCENES/csg-64-spheres.ini" >"$C"
+for m in newton-ah mrfro; do
+    run 0 "leaf tapes $m" -- render "$C" --method $m --size 48x40 --png "$TMP/lt.png" \
+        --vti "$TMP/lt.vti" --stats "$TMP/lt.json" --quiet &&
+        run 0 "--no-leaf-tapes $m" -- render "$C" --method $m --size 48x40 --no-leaf-tapes \
+            --png "$TMP/rt.png" --vti "$TMP/rt.vti" --stats "$TMP/rt.json" --quiet || continue
+    cmp -s "$TMP/lt.png" "$TMP/rt.png" && ok || fail "$m: PNG differs with and without leaf tapes"
+    # same hits, t to 2^-42 relative (both certified to 2^-44)
+    paste <(vti_t "$TMP/lt.vti") <(vti_t "$TMP/rt.vti") | "$PY" -c '
+import math, sys
+bad = 0
+for line in sys.stdin:
+    a, b = map(float, line.split())
+    if math.isnan(a) != math.isnan(b) or (not math.isnan(a) and abs(a - b) > 2**-42 * abs(a)):
+        bad += 1
+sys.exit(bad != 0)' && ok || fail "$m: hits differ with and without leaf tapes"
+    "$PY" - "$TMP/lt.json" "$TMP/rt.json" <<'EOF' && ok || fail "$m: leaf tape stats (above)"
+import json, sys
+lt, rt = (json.load(open(p)) for p in sys.argv[1:3])
+assert lt["leaf_tapes"] is True and rt["leaf_tapes"] is False, (lt, rt)
+assert lt["leaf_tapes_stored"] > 0 and lt["leaf_tapes_clauses"] > 0 and lt["leaf_tapes_time_s"] >= 0
+assert "leaf_tapes_stored" not in rt
+assert lt["hits"] == rt["hits"] > 0
+EOF
+done
+run 0 "no choices: no leaf tapes" -- render "$S" --size 16x12 --stats "$TMP/s.json" --quiet &&
+    "$PY" -c 'import json,sys; s=json.load(open(sys.argv[1])); assert s["leaf_tapes"] is False' \
+        "$TMP/s.json" && ok || fail "a tape without choices got leaf tapes"
+run 0 "render --help: --no-leaf-tapes" -- render --help &&
+    grep -q -- "--no-leaf-tapes" "$TMP/out" && ok || fail "render --help does not mention --no-leaf-tapes"
+
 cli_summary

@@ -27,7 +27,7 @@ methods=(mitchell newton newton-ah mrfro mrfro-newton lipschitz sampling)
 # Keys of the stats files that measure the run (or name its files) rather
 # than its result, and the leaf-tape keys (written by newer binaries only).
 strip_timing() {
-    grep -v -E '"(time_s|build_time_s|render_time_s|peak_bytes|threads|octree_source|leaf_tapes[a-z_]*)"' "$1" || true
+    { grep -v -E '"(time_s|build_time_s|render_time_s|peak_bytes|threads|octree_source|leaf_tapes[a-z_]*)"' "$1" || true; } | sed 's/,$//'
 }
 
 # An OpenVDB file names itself with a random UUID in its header.

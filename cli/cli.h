@@ -10,7 +10,7 @@
 
 #include "../expr/error.h"
 
-/* Exit codes (DESIGN.md §4). */
+/* Exit codes (docs/DESIGN.md §4). */
 enum { EXIT_OK = 0, EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 
 #define IVOCT_VERSION "0.1.0"

@@ -28,13 +28,12 @@ static int worker_init(worker_t *w, build_t *b)
     w->b = b;
     uint32_t n = b->tape->n;
     w->ws = tape_ws_new(n);
-    w->ws_centre = tape_ws_new(n);
     w->scratch = malloc(3 * (size_t)n * sizeof *w->scratch);
     w->choices = b->choices ? malloc(8 * (size_t)n) : NULL;
     size_t ntapes = (size_t)(OCT_MAX_DEPTH + 1) * 8;
     w->tape_store = b->choices ? malloc(ntapes * n * sizeof *w->tape_store) : NULL;
     w->ilie_ws = (b->tests & OCT_TEST_ILIE) ? ilie_ws_new(n) : NULL;
-    if (!w->ws || !w->ws_centre || !w->scratch ||
+    if (!w->ws || !w->scratch ||
         (b->choices && (!w->tape_store || !w->choices)) ||
         ((b->tests & OCT_TEST_ILIE) && !w->ilie_ws))
         return -1;
@@ -42,17 +41,16 @@ static int worker_init(worker_t *w, build_t *b)
         for (int d = 0; d <= OCT_MAX_DEPTH; d++)
             for (int k = 0; k < 8; k++)
                 w->tapes[d][k].clauses = w->tape_store + ((size_t)d * 8 + (size_t)k) * n;
-    /* the workspaces hold TAPE_LANES lanes of every slot: interval, gradient, point */
+    /* the workspace holds TAPE_LANES lanes of every slot: interval, gradient, point */
     build_account(b, (ptrdiff_t)(w->b->choices ? ntapes * n * sizeof *w->tape_store + 8 * n : 0) +
-                   (ptrdiff_t)(2 * (size_t)n * TAPE_LANES * (sizeof(double) + sizeof(iv_t) +
-                                                             sizeof(iv_grad_t))));
+                   (ptrdiff_t)((size_t)n * TAPE_LANES * (sizeof(double) + sizeof(iv_t) +
+                                                         sizeof(iv_grad_t))));
     return 0;
 }
 
 static void worker_free(worker_t *w)
 {
     tape_ws_free(w->ws);
-    tape_ws_free(w->ws_centre);
     ilie_ws_free(w->ilie_ws);
     free(w->scratch);
     free(w->tape_store);

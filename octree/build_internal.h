@@ -61,7 +61,7 @@ typedef struct pool {
 /* One thread's evaluators and scratch. */
 typedef struct worker {
     build_t *b;
-    tape_ws_t *ws, *ws_centre;
+    tape_ws_t *ws;
     ilie_ws_t *ilie_ws;        /* only with the ilie test */
     uint8_t *choices;          /* 8 * tape->n: the choices of one interval pass */
     tape_clause_t *tape_store; /* (OCT_MAX_DEPTH + 1) * 8 pruned tapes */

@@ -86,7 +86,7 @@ static int lipschitz_pass(worker_t *w, const tape_t *t, const iv_box_t *boxes, i
         c[j][0] = iv_mid(x->x), c[j][1] = iv_mid(x->y), c[j][2] = iv_mid(x->z);
         cb[j] = (iv_box_t){iv_point(c[j][0]), iv_point(c[j][1]), iv_point(c[j][2])};
     }
-    tape_eval_interval(t, w->ws_centre, (size_t)nopen, cb, Fc);
+    tape_eval_interval(t, w->ws, (size_t)nopen, cb, Fc);
     w->st.tape_clauses_evaluated += (uint64_t)nopen * t->n;
     int still = 0;
     for (int j = 0; j < nopen; j++) {

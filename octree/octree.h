@@ -164,7 +164,8 @@ double oct_leaf_error_bound(const oct_tree_t *tree, uint32_t i);
  * it equals f at every point of that box where f is defined; the margin must
  * cover how far the evaluations may stray out of the leaf by rounding (ray/:
  * ray_tape_margin).  Pruning follows the tree from the root as the build
- * does, and a leaf shares its parent's tape where nothing more was decided. */
+ * does; a leaf shares its parent's tape where nothing more was decided, and
+ * equal tapes are stored once. */
 typedef struct oct_leaf_tapes {
     uint32_t n_leaves;
     const tape_t **of_leaf; /* of_leaf[i]: the tape of leaf i (its tape->n <= the

@@ -6,7 +6,10 @@
  * the margin, recording the choices, and a child whose evaluation decided a
  * choice gets the tape pruned with them; the others share their parent's.
  * Pruning only shrinks a tape, and once every choice of a branch is decided
- * nothing more changes below, so few tapes are stored: mostly near the top. */
+ * nothing more changes below; and the same tape comes out in many places (a
+ * CSG leaf near the same few primitives, a shell's inside and outside), so
+ * each distinct tape is stored once (a hash table of their clauses): few
+ * tapes, and the renderer's evaluations stay in cache. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,6 +21,7 @@
 typedef struct stored {
     size_t first;
     uint32_t n;
+    uint64_t hash;
 } stored_t;
 
 typedef struct walk {
@@ -31,6 +35,8 @@ typedef struct walk {
     size_t n_clauses, cap_clauses;
     stored_t *tapes;    /* tapes[0]: the root tape (not copied) */
     size_t n_tapes, cap_tapes;
+    uint32_t *table;    /* open addressing: tape index + 1, 0 empty */
+    size_t table_cap;   /* a power of two, at least twice n_tapes */
     uint32_t *of_leaf;  /* tape index of each leaf */
     int failed;
 } walk_t;
@@ -59,6 +65,67 @@ static tape_t tape_of(const walk_t *w, const tape_t *root, size_t id)
         return *root;
     tape_t t = {w->clauses + w->tapes[id].first, w->tapes[id].n};
     return t;
+}
+
+/* FNV-1a over the clauses' fields (not their padding) */
+static uint64_t hash_clauses(const tape_clause_t *c, uint32_t n)
+{
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (uint32_t i = 0; i < n; i++) {
+        uint64_t w[4] = {(uint64_t)c[i].op << 32 | c[i].a, c[i].b, 0, 0};
+        memcpy(&w[2], &c[i].c.lo, sizeof(double));
+        memcpy(&w[3], &c[i].c.hi, sizeof(double));
+        for (int k = 0; k < 4; k++)
+            h = (h ^ w[k]) * 0x100000001b3ull;
+    }
+    return h;
+}
+
+static int same_clauses(const tape_clause_t *a, const tape_clause_t *b, uint32_t n)
+{
+    for (uint32_t i = 0; i < n; i++)
+        if (a[i].op != b[i].op || a[i].a != b[i].a || a[i].b != b[i].b ||
+            memcmp(&a[i].c.lo, &b[i].c.lo, sizeof(double)) ||
+            memcmp(&a[i].c.hi, &b[i].c.hi, sizeof(double)))
+            return 0;
+    return 1;
+}
+
+/* The index of the stored tape equal to the one just written at the end of
+ * the clause array (n clauses), which is then dropped; or a new index for it.
+ * The root tape (index 0) is not in the table: a pruned tape equal to it is
+ * stored once like any other.  0 with w->failed set when out of memory. */
+static uint32_t intern(walk_t *w, uint32_t n)
+{
+    if (2 * (w->n_tapes + 1) > w->table_cap) {
+        size_t cap = w->table_cap ? 2 * w->table_cap : 1024;
+        uint32_t *t = calloc(cap, sizeof *t);
+        if (!t) {
+            w->failed = 1;
+            return 0;
+        }
+        for (size_t i = 1; i < w->n_tapes; i++) {
+            size_t j = w->tapes[i].hash & (cap - 1);
+            while (t[j])
+                j = (j + 1) & (cap - 1);
+            t[j] = (uint32_t)i + 1;
+        }
+        free(w->table);
+        w->table = t;
+        w->table_cap = cap;
+    }
+    const tape_clause_t *mine = w->clauses + w->n_clauses;
+    uint64_t h = hash_clauses(mine, n);
+    size_t j = h & (w->table_cap - 1);
+    for (; w->table[j]; j = (j + 1) & (w->table_cap - 1)) {
+        const stored_t *o = &w->tapes[w->table[j] - 1];
+        if (o->hash == h && o->n == n && same_clauses(w->clauses + o->first, mine, n))
+            return w->table[j] - 1;
+    }
+    w->tapes[w->n_tapes] = (stored_t){w->n_clauses, n, h};
+    w->n_clauses += n;
+    w->table[j] = (uint32_t)w->n_tapes + 1;
+    return (uint32_t)w->n_tapes++;
 }
 
 /* Every leaf of the subtree at node word `word` gets tape id. */
@@ -119,9 +186,9 @@ static void descend(walk_t *w, const tape_t *root, uint32_t first, int depth, ui
             t = tape_of(w, root, id); /* the clause array may have moved */
             tape_t out = {w->clauses + w->n_clauses, 0};
             tape_prune(&t, c, w->scratch, &out);
-            w->tapes[w->n_tapes] = (stored_t){w->n_clauses, out.n};
-            w->n_clauses += out.n;
-            kid = (uint32_t)w->n_tapes++;
+            kid = intern(w, out.n);
+            if (w->failed)
+                return;
         }
         uint32_t cx = 2 * ix + (k & 1u), cy = 2 * iy + (k >> 1 & 1u), cz = 2 * iz + (k >> 2 & 1u);
         if (OCT_NODE_KIND(word) == OCT_LEAF)
@@ -141,7 +208,7 @@ int oct_leaf_tapes_build(const oct_tree_t *tree, const tape_t *tape, double marg
         return -1;
     }
     oct_leaf_tapes_t *lt = calloc(1, sizeof *lt);
-    walk_t w = {tree, margin, NULL, tape->n, NULL, NULL, NULL, 0, 0, NULL, 0, 0, NULL, 0};
+    walk_t w = {.tree = tree, .margin = margin, .root_n = tape->n};
     size_t nl = tree->n_leaves ? tree->n_leaves : 1;
     w.ws = tape_ws_new(tape->n);
     w.choices = malloc((size_t)(OCT_MAX_DEPTH + 1) * 8 * tape->n);
@@ -150,7 +217,7 @@ int oct_leaf_tapes_build(const oct_tree_t *tree, const tape_t *tape, double marg
     w.failed = !lt || !w.ws || !w.choices || !w.scratch || !w.of_leaf ||
                reserve(&w, (void **)&w.tapes, &w.cap_tapes, 1, sizeof *w.tapes);
     if (!w.failed) {
-        w.tapes[0] = (stored_t){0, tape->n};
+        w.tapes[0] = (stored_t){0, tape->n, 0};
         w.n_tapes = 1;
         /* the root: pruned over the grown tree box when that decides anything */
         oct_node_t root = tree->n_nodes ? tree->nodes[0] : OCT_NODE(OCT_EMPTY, 0);
@@ -181,6 +248,7 @@ int oct_leaf_tapes_build(const oct_tree_t *tree, const tape_t *tape, double marg
     free(w.scratch);
     free(w.of_leaf);
     free(w.tapes);
+    free(w.table);
     free(w.clauses);
     if (w.failed) {
         oct_leaf_tapes_free(lt);

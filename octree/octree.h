@@ -173,6 +173,8 @@ typedef struct oct_leaf_tapes {
                                was pruned) */
     size_t n_tapes;         /* pruned tapes stored (the root tape not counted) */
     size_t n_clauses;       /* their clauses in all */
+    double mean_clauses;    /* the mean length of the leaves' tapes (the root's when
+                               there are no leaves) */
     tape_t *tapes;          /* storage: tapes[0] is the root tape, borrowed */
     tape_clause_t *clauses;
 } oct_leaf_tapes_t;

@@ -159,13 +159,18 @@ static void descend(walk_t *w, const tape_t *root, uint32_t first, int depth, ui
     const oct_tree_t *tree = w->tree;
     if (w->failed || depth >= OCT_MAX_DEPTH || tree->n_nodes < 8 || first > tree->n_nodes - 8)
         return;
+    tape_t t = tape_of(w, root, id);
+    if (!tape_has_choices(&t)) { /* nothing left to decide below: the subtree shares it */
+        for (int k = 0; k < 8; k++)
+            assign(w, tree->nodes[first + k], id);
+        return;
+    }
     iv_box_t boxes[8];
     for (int k = 0; k < 8; k++) {
         iv_box_t b = oct_cell_box(tree->box, depth + 1, 2 * ix + (k & 1u), 2 * iy + (k >> 1 & 1u),
                                   2 * iz + (k >> 2 & 1u));
         boxes[k] = grown(&b, w->margin);
     }
-    tape_t t = tape_of(w, root, id);
     uint8_t *choices = w->choices + (size_t)depth * 8 * w->root_n;
     iv_t F[8];
     tape_eval_interval_choices(&t, w->ws, 8, boxes, F, choices);
@@ -239,8 +244,12 @@ int oct_leaf_tapes_build(const oct_tree_t *tree, const tape_t *tape, double marg
         lt->tapes[0] = *tape;
         for (size_t i = 1; i < w.n_tapes; i++)
             lt->tapes[i] = (tape_t){w.clauses + w.tapes[i].first, w.tapes[i].n};
-        for (uint32_t i = 0; i < tree->n_leaves; i++)
+        double sum = 0;
+        for (uint32_t i = 0; i < tree->n_leaves; i++) {
             lt->of_leaf[i] = &lt->tapes[w.of_leaf[i]];
+            sum += lt->of_leaf[i]->n;
+        }
+        lt->mean_clauses = tree->n_leaves ? sum / tree->n_leaves : tape->n;
         w.clauses = NULL;
     }
     tape_ws_free(w.ws);

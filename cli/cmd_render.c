@@ -384,8 +384,8 @@ int cmd_render(int argc, char **argv)
     if (tree && !no_leaf_tapes && tape_has_choices(s.tape)) {
         /* the margin of the camera covers every turntable view of it */
         double t0 = omp_get_wtime();
-        if (oct_leaf_tapes_build(tree, s.tape, ray_tape_margin(&cam0, s.box), &leaf_tapes,
-                                 &err)) {
+        if (oct_leaf_tapes_build(tree, s.tape, ray_tape_margin(&cam0, s.box), 0.75,
+                                 &leaf_tapes, &err)) {
             fprintf(stderr, "ivoct render: %s\n", err.msg);
             rc = EXIT_RUNTIME;
             goto out;
@@ -395,7 +395,7 @@ int cmd_render(int argc, char **argv)
         /* a tape shorter by a clause or two does not pay for leaving the one
          * tape that stays in cache: the leaves' tapes must be a quarter
          * shorter on average (the thin shell's abs: 14 -> 13.5 clauses) */
-        if (leaf_tapes->mean_clauses <= 0.75 * s.tape->n) {
+        if (leaf_tapes->n_tapes > 0 && leaf_tapes->mean_clauses <= 0.75 * s.tape->n) {
             trav.tapes = leaf_tapes;
             oi.leaf_tapes_used = 1;
         }

@@ -181,9 +181,13 @@ typedef struct oct_leaf_tapes {
 
 /* Prune `tape` (the tape the tree was built from; borrowed, it must outlive
  * the result) for every leaf of tree.  A tape without choices gives every
- * leaf the root tape.  Errors: out of memory, bad arguments. */
+ * leaf the root tape.  max_ratio < 1: a probe first prunes the top three
+ * levels only, and when the tapes there are not on average at most max_ratio
+ * times the root's length, pruning is not worth a walk of the whole tree:
+ * every leaf gets the root tape (n_tapes = 0); max_ratio >= 1 always walks.
+ * Errors: out of memory, bad arguments. */
 int oct_leaf_tapes_build(const oct_tree_t *tree, const tape_t *tape, double margin,
-                         oct_leaf_tapes_t **out, ivoct_error_t *err);
+                         double max_ratio, oct_leaf_tapes_t **out, ivoct_error_t *err);
 void oct_leaf_tapes_free(oct_leaf_tapes_t *lt);
 
 /* ---- native file (.ivo) -----------------------------------------------------

@@ -38,6 +38,8 @@ typedef struct walk {
     uint32_t *table;    /* open addressing: tape index + 1, 0 empty */
     size_t table_cap;   /* a power of two, at least twice n_tapes */
     uint32_t *of_leaf;  /* tape index of each leaf */
+    int limit;          /* interior nodes at this depth are not descended into */
+    double probe_sum, probe_count; /* their tapes' lengths, and the leaves' above */
     int failed;
 } walk_t;
 
@@ -196,16 +198,35 @@ static void descend(walk_t *w, const tape_t *root, uint32_t first, int depth, ui
                 return;
         }
         uint32_t cx = 2 * ix + (k & 1u), cy = 2 * iy + (k >> 1 & 1u), cz = 2 * iz + (k >> 2 & 1u);
+        if (OCT_NODE_KIND(word) == OCT_LEAF || depth + 1 >= w->limit) {
+            w->probe_sum += kid ? w->tapes[kid].n : root->n;
+            w->probe_count++;
+        }
         if (OCT_NODE_KIND(word) == OCT_LEAF)
             assign(w, word, kid);
-        else
+        else if (depth + 1 < w->limit)
             descend(w, root, OCT_NODE_VALUE(word), depth + 1, cx, cy, cz, kid);
         t = tape_of(w, root, id);
     }
 }
 
+/* Back to no tape stored and every leaf with the root tape. */
+static void walk_reset(walk_t *w)
+{
+    w->n_tapes = 1;
+    w->n_clauses = 0;
+    if (w->table)
+        memset(w->table, 0, w->table_cap * sizeof *w->table);
+    memset(w->of_leaf, 0, (w->tree->n_leaves ? w->tree->n_leaves : 1) * sizeof *w->of_leaf);
+    w->probe_sum = w->probe_count = 0;
+}
+
+/* The depth of the probe: few nodes, and deep enough that a CSG cell meets
+ * only some of the primitives. */
+#define PROBE_DEPTH 3
+
 int oct_leaf_tapes_build(const oct_tree_t *tree, const tape_t *tape, double margin,
-                         oct_leaf_tapes_t **out, ivoct_error_t *err)
+                         double max_ratio, oct_leaf_tapes_t **out, ivoct_error_t *err)
 {
     *out = NULL;
     if (!tree || !tape || tape->n == 0 || !(margin >= 0) || !isfinite(margin)) {
@@ -226,7 +247,16 @@ int oct_leaf_tapes_build(const oct_tree_t *tree, const tape_t *tape, double marg
         w.n_tapes = 1;
         /* the root: pruned over the grown tree box when that decides anything */
         oct_node_t root = tree->n_nodes ? tree->nodes[0] : OCT_NODE(OCT_EMPTY, 0);
-        if (tape_has_choices(tape) && OCT_NODE_KIND(root) == OCT_INTERIOR)
+        int walk = tape_has_choices(tape) && OCT_NODE_KIND(root) == OCT_INTERIOR;
+        if (walk && max_ratio < 1 && tree->depth > PROBE_DEPTH) {
+            /* the probe: the tapes of the top levels only */
+            w.limit = PROBE_DEPTH;
+            descend(&w, tape, OCT_NODE_VALUE(root), 0, 0, 0, 0, 0);
+            walk = w.probe_count > 0 && w.probe_sum <= max_ratio * tape->n * w.probe_count;
+            walk_reset(&w);
+        }
+        w.limit = OCT_MAX_DEPTH + 1;
+        if (walk && !w.failed)
             descend(&w, tape, OCT_NODE_VALUE(root), 0, 0, 0, 0, 0);
         else
             assign(&w, root, 0);

@@ -109,7 +109,7 @@ static void test_every_scene(void **state)
         /* a margin far larger than rounding, so that growing the boxes counts */
         double margin = 0x1p-20 * (sc.box[1] - sc.box[0]);
         oct_leaf_tapes_t *lt;
-        assert_int_equal(oct_leaf_tapes_build(tree, sc.tape, margin, &lt, &err), 0);
+        assert_int_equal(oct_leaf_tapes_build(tree, sc.tape, margin, 1.0, &lt, &err), 0);
         assert_int_equal(lt->n_leaves, tree->n_leaves);
         int choices = tape_has_choices(sc.tape);
         with_choices += choices;
@@ -133,6 +133,24 @@ static void test_every_scene(void **state)
             assert_true(c.pruned_leaves == c.leaves);
             assert_true(c.clauses / (double)c.leaves < 0.25 * sc.tape->n);
         }
+        /* with the probe: either the whole walk, as above, or every leaf the root tape */
+        oct_leaf_tapes_t *probed;
+        assert_int_equal(oct_leaf_tapes_build(tree, sc.tape, margin, 0.75, &probed, &err), 0);
+        if (probed->n_tapes == 0) {
+            for (uint32_t i = 0; i < tree->n_leaves; i++)
+                assert_ptr_equal(probed->of_leaf[i]->clauses, sc.tape->clauses);
+            assert_true(probed->mean_clauses == sc.tape->n);
+        } else {
+            assert_int_equal(probed->n_tapes, lt->n_tapes);
+            for (uint32_t i = 0; i < tree->n_leaves; i++)
+                assert_int_equal(probed->of_leaf[i]->n, lt->of_leaf[i]->n);
+        }
+        /* the CSG union's top levels prune well; the thin shell's abs does not */
+        if (strstr(paths[s], "csg-64-spheres"))
+            assert_true(probed->n_tapes > 0);
+        if (strstr(paths[s], "thin-shell"))
+            assert_int_equal(probed->n_tapes, 0);
+        oct_leaf_tapes_free(probed);
         oct_leaf_tapes_free(lt);
         oct_free(tree);
         scene_free(&sc);
@@ -157,9 +175,8 @@ static void render_both(const char *name)
     ray_camera_t cam;
     assert_int_equal(ray_camera_init(&cam, sc.camera.eye, sc.camera.target, sc.camera.up, sc.camera.fov, w, h, &err), 0);
     oct_leaf_tapes_t *lt;
-    assert_int_equal(oct_leaf_tapes_build(tree, sc.tape, ray_tape_margin(&cam, sc.box), &lt,
-                                          &err),
-                     0);
+    assert_int_equal(
+        oct_leaf_tapes_build(tree, sc.tape, ray_tape_margin(&cam, sc.box), 1.0, &lt, &err), 0);
     for (int m = 0; m < RAY_METHOD_COUNT; m++) {
         if (!ray_method_certified((ray_method_t)m))
             continue;

@@ -168,7 +168,7 @@ static inline void tape_ray_point(const double o[3], const double d[3], double t
  *            rounded point of T; +inf where no finite bound is known (f not
  *            Lipschitz on X_k, e.g. sqrt at 0).  By the mean value theorem,
  *            for t, m ∈ T: f(p~(t)) and g(t) lie in f(p~(m)) + dg·(t - m) ±
- *            rnd (the Newton and Kalra–Barr steps of ray/roots.c need this).
+ *            rnd (the Newton and Kalra–Barr steps of ray/ need this).
  * Same outward rounding and set-based conventions as the interval evaluator:
  * empty where f is defined nowhere on X_k, never NaN from a defined value.
  * dg = NULL: values only (an interval pass; rnd ignored).  rnd may be NULL. */

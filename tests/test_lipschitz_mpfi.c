@@ -62,12 +62,6 @@ enum { BATCH = 13 }; /* not a multiple of TAPE_LANES: exercises short chunks */
 
 /* ---- sampling ------------------------------------------------------------------ */
 
-static double lerp(double a, double b, double u)
-{
-    double v = a + (b - a) * u;
-    return v < a ? a : v > b ? b : v;
-}
-
 /* Boxes for a budget of clause evaluations at cost clause evaluations per box,
  * between floor and cap.  The floor keeps the sanitizer build (a tenth of the
  * budget) deciding some boxes of every scene. */
@@ -79,15 +73,13 @@ static long boxes_for(long budget, double cost, long floor, long cap, long unit)
     return m < floor ? floor : m;
 }
 
-static iv_t side(const iv_box_t *b, int k) { return k == 0 ? b->x : k == 1 ? b->y : b->z; }
-
 /* A box of the given fraction of the scene box on every axis, placed uniformly inside it. */
 static iv_box_t sub_box(const double box[6], double frac, uint64_t *rng)
 {
     iv_t r[3];
     for (int k = 0; k < 3; k++) {
         double lo = box[2 * k], hi = box[2 * k + 1], w = (hi - lo) * frac;
-        double a = lerp(lo, hi - w, tu_uniform(rng));
+        double a = tu_lerp(lo, hi - w, tu_uniform(rng));
         double e = fmin(a + w, hi);
         r[k] = iv_make(a, e < a ? a : e);
     }
@@ -108,7 +100,7 @@ static iv_box_t centred_box(const double box[6], const double c[3], double frac)
 static void random_point(const double box[6], uint64_t *rng, double p[3])
 {
     for (int k = 0; k < 3; k++)
-        p[k] = lerp(box[2 * k], box[2 * k + 1], tu_uniform(rng));
+        p[k] = tu_lerp(box[2 * k], box[2 * k + 1], tu_uniform(rng));
 }
 
 static double eval_point(const tape_t *t, tape_ws_t *ws, const double p[3])
@@ -167,26 +159,6 @@ static int unit_normal(const tape_t *t, tape_ws_t *ws, const double p[3], double
     for (int k = 0; k < 3; k++)
         n[k] = g[k] / sqrt(n2);
     return 1;
-}
-
-/* Sample point j of a box: 0-7 the corners, 8 the centre, then half on a
- * random face, half inside. */
-static void box_point(const iv_box_t *b, int j, uint64_t *rng, double p[3])
-{
-    for (int k = 0; k < 3; k++) {
-        iv_t s = side(b, k);
-        if (j < 8)
-            p[k] = (j >> k) & 1 ? s.hi : s.lo;
-        else if (j == 8)
-            p[k] = iv_mid(s);
-        else
-            p[k] = lerp(s.lo, s.hi, tu_uniform(rng));
-    }
-    if (j > 8 && (j & 1)) {
-        int k = (int)(tu_next(rng) % 3);
-        iv_t s = side(b, k);
-        p[k] = tu_next(rng) & 1 ? s.hi : s.lo;
-    }
 }
 
 /* A failure message with MPFR values (%Rg): cmocka's fail_msg knows only printf's formats. */
@@ -389,7 +361,7 @@ static void check_gradient_bound(const scene_t *s, const char *path, uint64_t *r
             c->bounded += isfinite(L);
             for (long j = 0; j < npts; j++) {
                 double p[3];
-                box_point(&boxes[i], (int)j, rng, p);
+                tu_box_point(&boxes[i], (int)j, rng, p);
                 if (oracle_eval(t, p, end_of(j), m.v, m.g) != 0) {
                     c->skipped++;
                     continue;
@@ -485,7 +457,7 @@ static void check_cell(const scene_t *s, const char *path, uint64_t *rng, counts
             }
             boxes[i] = centred_box(s->box, q, frac);
             for (int k = 0; k < 3; k++)
-                cen[i][k] = iv_mid(side(&boxes[i], k));
+                cen[i][k] = iv_mid(tu_box_side(&boxes[i], k));
             cb[i] = (iv_box_t){iv_point(cen[i][0]), iv_point(cen[i][1]), iv_point(cen[i][2])};
         }
         tape_eval_interval(t, ws, BATCH, cb, fc);
@@ -501,7 +473,7 @@ static void check_cell(const scene_t *s, const char *path, uint64_t *rng, counts
             {
                 double r2 = 0, mig = sg > 0 ? fc[i].lo : -fc[i].hi;
                 for (int k = 0; k < 3; k++) {
-                    iv_t sd = side(&boxes[i], k);
+                    iv_t sd = tu_box_side(&boxes[i], k);
                     double leg = fmax(cen[i][k] - sd.lo, sd.hi - cen[i][k]);
                     r2 += leg * leg;
                 }
@@ -517,13 +489,13 @@ static void check_cell(const scene_t *s, const char *path, uint64_t *rng, counts
                 if (j < (long)g * g * g) {
                     long idx[3] = {j % g, (j / g) % g, j / ((long)g * g)};
                     for (int k = 0; k < 3; k++) {
-                        iv_t sd = side(&boxes[i], k);
+                        iv_t sd = tu_box_side(&boxes[i], k);
                         p[k] = idx[k] == 0       ? sd.lo
                                : idx[k] == g - 1 ? sd.hi
-                                                 : lerp(sd.lo, sd.hi, (double)idx[k] / (g - 1));
+                                                 : tu_lerp(sd.lo, sd.hi, (double)idx[k] / (g - 1));
                     }
                 } else {
-                    box_point(&boxes[i], 9 + (int)(j & 1), rng, p);
+                    tu_box_point(&boxes[i], 9 + (int)(j & 1), rng, p);
                 }
                 if (oracle_eval(t, p, end_of(j), m.v, NULL) != 0) {
                     c->skipped++;
@@ -608,7 +580,7 @@ static void random_ray(const double box[6], uint64_t *rng, double o[3], double d
         } else {
             double u[3];
             unit_vector(rng, u);
-            double r = diag * lerp(0.6, 3.0, tu_uniform(rng));
+            double r = diag * tu_lerp(0.6, 3.0, tu_uniform(rng));
             double n2 = 0;
             for (int k = 0; k < 3; k++) {
                 o[k] = iv_mid(iv_make(box[2 * k], box[2 * k + 1])) + r * u[k];
@@ -635,7 +607,7 @@ static int ray_root(const tape_t *t, tape_ws_t *ws, const double o[3], const dou
     tape_ray_point(o, d, t0, p);
     prev_g = eval_point(t, ws, p);
     for (int j = 1; j <= 64; j++) {
-        double tt = lerp(t0, t1, j / 64.0);
+        double tt = tu_lerp(t0, t1, j / 64.0);
         tape_ray_point(o, d, tt, p);
         double gt = eval_point(t, ws, p);
         if ((prev_g < 0 && gt > 0) || (prev_g > 0 && gt < 0)) {
@@ -699,12 +671,12 @@ static void check_segments(const scene_t *s, const char *path, uint64_t *rng, co
                                   : iv_make(mid[i] - h, mid[i] + v * h);
             } else {
                 double len = (t1 - t0) * exp2(-20.0 * tu_uniform(rng));
-                double a = lerp(t0, t1 - len, tu_uniform(rng));
+                double a = tu_lerp(t0, t1 - len, tu_uniform(rng));
                 double b = fmin(a + len, t1);
                 b = b < a ? a : b;
                 T[i] = iv_make(a, b);
                 /* m: the midpoint mostly, now and then anywhere in T */
-                mid[i] = tu_next(rng) % 4 ? iv_mid(T[i]) : lerp(a, b, tu_uniform(rng));
+                mid[i] = tu_next(rng) % 4 ? iv_mid(T[i]) : tu_lerp(a, b, tu_uniform(rng));
             }
             Tm[i] = iv_point(mid[i]);
         }
@@ -729,7 +701,7 @@ static void check_segments(const scene_t *s, const char *path, uint64_t *rng, co
                 double tt = j == 0   ? T[i].lo
                             : j == 1 ? T[i].hi
                             : j == 2 ? mid[i]
-                                     : lerp(T[i].lo, T[i].hi,
+                                     : tu_lerp(T[i].lo, T[i].hi,
                                             ((double)(j - 3) + tu_uniform(rng)) /
                                                 (double)(per - 3));
                 /* the exact point o + t·d (gradient required by the oracle
@@ -838,7 +810,7 @@ static void check_cone(const scene_t *s, const char *path, uint64_t *rng, counts
             c->decided++;
             for (long j = 0; j < npts; j++) {
                 double p[3];
-                box_point(&boxes[i], (int)j, rng, p);
+                tu_box_point(&boxes[i], (int)j, rng, p);
                 if (oracle_eval(t, p, end_of(j), m.v, m.g) != 0) {
                     c->skipped++;
                     continue;

@@ -58,14 +58,6 @@ enum { BATCH = 13 }; /* not a multiple of TAPE_LANES: exercises short chunks */
 
 /* ---- sampling ------------------------------------------------------------------------------- */
 
-static double lerp(double a, double b, double u)
-{
-    double v = a + (b - a) * u;
-    return v < a ? a : v > b ? b : v;
-}
-
-static iv_t side(const iv_box_t *b, int k) { return k == 0 ? b->x : k == 1 ? b->y : b->z; }
-
 /* frac > 0: a box of that fraction of the scene box per axis; else a random
  * fraction 2^-30..1, one box in 16 a point.  Placed uniformly inside. */
 static iv_box_t random_box(const double box[6], double frac, uint64_t *rng)
@@ -78,31 +70,11 @@ static iv_box_t random_box(const double box[6], double frac, uint64_t *rng)
     }
     for (int k = 0; k < 3; k++) {
         double lo = box[2 * k], hi = box[2 * k + 1], w = (hi - lo) * frac;
-        double a = lerp(lo, hi - w, tu_uniform(rng));
+        double a = tu_lerp(lo, hi - w, tu_uniform(rng));
         double e = point ? a : fmin(a + w, hi);
         r[k] = iv_make(a, e < a ? a : e);
     }
     return (iv_box_t){r[0], r[1], r[2]};
-}
-
-/* Sample point j of a box: 0-7 the corners, 8 the centre, then alternately on
- * a random face and inside. */
-static void box_point(const iv_box_t *b, int j, uint64_t *rng, double p[3])
-{
-    for (int k = 0; k < 3; k++) {
-        iv_t s = side(b, k);
-        if (j < 8)
-            p[k] = (j >> k) & 1 ? s.hi : s.lo;
-        else if (j == 8)
-            p[k] = iv_mid(s);
-        else
-            p[k] = lerp(s.lo, s.hi, tu_uniform(rng));
-    }
-    if (j > 8 && (j & 1)) {
-        int k = (int)(tu_next(rng) % 3);
-        iv_t s = side(b, k);
-        p[k] = tu_next(rng) & 1 ? s.hi : s.lo;
-    }
 }
 
 static const char *box_str(char *buf, size_t n, const iv_box_t *b)
@@ -209,7 +181,7 @@ static void check_points(const tape_t *t, const tape_t *out, const iv_box_t *box
     char b1[256];
     for (long j = 0; j < npts; j++) {
         double p[3];
-        box_point(box, (int)j, rng, p);
+        tu_box_point(box, (int)j, rng, p);
         for (int w = 0; w < 2; w++) {
             oracle_const_t which = w ? ORACLE_CONST_HI : ORACLE_CONST_LO;
             if (oracle_eval(t, p, which, m->v0, NULL) != 0) {

@@ -56,6 +56,26 @@ double tu_pick(iv_t r, uint64_t *rng)
     }
 }
 
+iv_t tu_box_side(const iv_box_t *b, int k) { return k == 0 ? b->x : k == 1 ? b->y : b->z; }
+
+void tu_box_point(const iv_box_t *b, int j, uint64_t *rng, double p[3])
+{
+    for (int k = 0; k < 3; k++) {
+        iv_t s = tu_box_side(b, k);
+        if (j < 8)
+            p[k] = (j >> k) & 1 ? s.hi : s.lo;
+        else if (j == 8)
+            p[k] = iv_mid(s);
+        else
+            p[k] = tu_lerp(s.lo, s.hi, tu_uniform(rng));
+    }
+    if (j > 8 && (j & 1)) {
+        int k = (int)(tu_next(rng) % 3);
+        iv_t s = tu_box_side(b, k);
+        p[k] = tu_next(rng) & 1 ? s.hi : s.lo;
+    }
+}
+
 double tu_scale(void)
 {
     const char *s = getenv("IVOCT_TEST_SCALE");

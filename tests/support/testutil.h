@@ -39,6 +39,13 @@ iv_box_t tu_random_subbox(const double box[6], uint64_t *rng);
 /* A point of r: an end (one in four each) or a uniform interior point. */
 double tu_pick(iv_t r, uint64_t *rng);
 
+/* Axis k (0, 1, 2) of a box. */
+iv_t tu_box_side(const iv_box_t *b, int k);
+
+/* Sample point j of a box: j = 0..7 its corners, 8 its centre, then
+ * alternately a random point on a random face (odd j) and inside (even j). */
+void tu_box_point(const iv_box_t *b, int j, uint64_t *rng, double p[3]);
+
 /* The seed: IVOCT_SEED from the environment, else the given default. */
 uint64_t tu_seed(uint64_t fallback);
 

@@ -43,6 +43,9 @@ s = json.load(open(sys.argv[1]))
 print(s["time_s"] + s.get("leaf_tapes_time_s", 0))' "$1"
 }
 
+# the smaller of two times; the second may be empty (none yet)
+smaller() { awk -v a="$1" -v b="$2" 'BEGIN { print (b == "" || a < b) ? a : b }'; }
+
 csv=$out/$name.csv
 echo "scene,method,size,threads,leaf_tapes_s,root_tape_s,speedup" > "$csv"
 for s in $scenes; do
@@ -58,11 +61,8 @@ for s in $scenes; do
                     --threads "$threads" --quiet $flag --png "$tmp/$side.png" \
                     --stats "$tmp/$side.json"
                 t=$(time_of "$tmp/$side.json")
-                if [ $side = lt ]; then
-                    best_lt=$(awk -v a="$t" -v b="${best_lt:-inf}" 'BEGIN { print (b == "inf" || a < b) ? a : b }')
-                else
-                    best_rt=$(awk -v a="$t" -v b="${best_rt:-inf}" 'BEGIN { print (b == "inf" || a < b) ? a : b }')
-                fi
+                if [ $side = lt ]; then best_lt=$(smaller "$t" "$best_lt"); else
+                    best_rt=$(smaller "$t" "$best_rt"); fi
             done
             cmp -s "$tmp/lt.png" "$tmp/rt.png" ||
                 { echo "bench/leaf_tapes.sh: $s $m: the images differ" >&2; exit 1; }

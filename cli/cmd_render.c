@@ -29,6 +29,11 @@ static const char SYNOPSIS[] =
     "leaves it meets, front to back; the build time is reported apart.\n"
     "\n";
 
+/* Leaf tapes are used when they are at most this share of the scene's tape
+ * on average: a tape shorter by a clause or two does not pay for leaving the
+ * one tape that stays in cache (the thin shell's abs: 14 -> 13.9 clauses). */
+#define LEAF_TAPES_MAX_RATIO 0.75
+
 /* "WxH", both in 1..RAY_MAX_SIZE */
 static int parse_size(const char *text, int *w, int *h)
 {
@@ -384,18 +389,16 @@ int cmd_render(int argc, char **argv)
     if (tree && !no_leaf_tapes && tape_has_choices(s.tape)) {
         /* the margin of the camera covers every turntable view of it */
         double t0 = omp_get_wtime();
-        if (oct_leaf_tapes_build(tree, s.tape, ray_tape_margin(&cam0, s.box), 0.75,
-                                 &leaf_tapes, &err)) {
+        if (oct_leaf_tapes_build(tree, s.tape, ray_tape_margin(&cam0, s.box),
+                                 LEAF_TAPES_MAX_RATIO, &leaf_tapes, &err)) {
             fprintf(stderr, "ivoct render: %s\n", err.msg);
             rc = EXIT_RUNTIME;
             goto out;
         }
         oi.leaf_tapes_time_s = omp_get_wtime() - t0;
         oi.leaf_tapes = leaf_tapes;
-        /* a tape shorter by a clause or two does not pay for leaving the one
-         * tape that stays in cache: the leaves' tapes must be a quarter
-         * shorter on average (the thin shell's abs: 14 -> 13.5 clauses) */
-        if (leaf_tapes->n_tapes > 0 && leaf_tapes->mean_clauses <= 0.75 * s.tape->n) {
+        if (leaf_tapes->n_tapes > 0 &&
+            leaf_tapes->mean_clauses <= LEAF_TAPES_MAX_RATIO * s.tape->n) {
             trav.tapes = leaf_tapes;
             oi.leaf_tapes_used = 1;
         }

@@ -17,15 +17,21 @@ static int lipschitz_excluded(const node_t *n)
     return lip_segment_excludes(n->a, n->b, n->m, n->gm, n->Gp, lip_magnitude(n->R));
 }
 
+/* A field left out is 0: no derivatives, points with the boxes, the end-sign
+ * solution of a monotone segment, no extended division. */
 static const ray_method_info_t METHODS[RAY_METHOD_COUNT] = {
-    [RAY_MITCHELL] = {"mitchell", 1, RULES_INCLUSION, 1, 1, excluded, MONOTONE_END_SIGNS, 0},
-    [RAY_NEWTON] = {"newton", 1, RULES_INCLUSION, 1, 1, excluded, MONOTONE_NEWTON, 0},
-    [RAY_NEWTON_AH] = {"newton-ah", 1, RULES_INCLUSION, 1, 1, excluded, MONOTONE_NEWTON, 1},
-    [RAY_MRFRO] = {"mrfro", 1, RULES_SIGNS, 0, 0, excluded, MONOTONE_END_SIGNS, 0},
-    [RAY_MRFRO_NEWTON] = {"mrfro-newton", 1, RULES_SIGNS, 1, 0, excluded, MONOTONE_NEWTON, 0},
-    [RAY_LIPSCHITZ] = {"lipschitz", 1, RULES_INCLUSION, 1, 0, lipschitz_excluded,
-                       MONOTONE_END_SIGNS, 0},
-    [RAY_SAMPLING] = {"sampling", 0, RULES_SAMPLING, 0, 0, NULL, MONOTONE_END_SIGNS, 0},
+    [RAY_MITCHELL] = {.name = "mitchell", .rules = RULES_INCLUSION, .deriv = 1, .skip = 1,
+                      .excludes = excluded},
+    [RAY_NEWTON] = {.name = "newton", .rules = RULES_INCLUSION, .deriv = 1, .skip = 1,
+                    .excludes = excluded, .monotone = MONOTONE_NEWTON},
+    [RAY_NEWTON_AH] = {.name = "newton-ah", .rules = RULES_INCLUSION, .deriv = 1, .skip = 1,
+                       .excludes = excluded, .monotone = MONOTONE_NEWTON, .extended = 1},
+    [RAY_MRFRO] = {.name = "mrfro", .rules = RULES_SIGNS, .excludes = excluded},
+    [RAY_MRFRO_NEWTON] = {.name = "mrfro-newton", .rules = RULES_SIGNS, .deriv = 1,
+                          .excludes = excluded, .monotone = MONOTONE_NEWTON},
+    [RAY_LIPSCHITZ] = {.name = "lipschitz", .rules = RULES_INCLUSION, .deriv = 1,
+                       .excludes = lipschitz_excluded},
+    [RAY_SAMPLING] = {.name = "sampling", .rules = RULES_SAMPLING},
 };
 
 const ray_method_info_t *ray_method_info(ray_method_t m)
@@ -66,7 +72,7 @@ char *ray_method_list(char *buf, size_t n)
 
 int ray_method_certified(ray_method_t m)
 {
-    return (unsigned)m < RAY_METHOD_COUNT && METHODS[m].certified;
+    return (unsigned)m < RAY_METHOD_COUNT && METHODS[m].rules != RULES_SAMPLING;
 }
 
 void ray_opts_default(ray_opts_t *o)

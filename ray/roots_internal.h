@@ -37,6 +37,7 @@
 /* ---- methods.c: what distinguishes the methods ----------------------------------
  * The search (search.c) is one algorithm; each method is a row of this table,
  * and the search asks the row, never the method's name. */
+/* Every method but sampling is certified. */
 typedef enum { RULES_INCLUSION, RULES_SIGNS, RULES_SAMPLING } ray_rules_t;
 typedef enum { MONOTONE_END_SIGNS, MONOTONE_NEWTON } ray_monotone_t;
 
@@ -44,7 +45,6 @@ typedef struct node node_t;
 
 typedef struct ray_method_info {
     const char *name;
-    int certified;
     /* RULES_INCLUSION: a node is dropped when `excludes` proves it holds no root,
      *   else shrunk; RULES_SIGNS (MRF): a certified sign change at the ends
      *   proves a root and spares the inclusion test; RULES_SAMPLING: point

@@ -63,18 +63,12 @@ static void check_leaf(const char *name, const oct_tree_t *tree, const tape_t *r
         fail_msg("%s: leaf %u has a tape of %u clauses, longer than the root's %u", name, i,
                  leaf->n, root->n);
     iv_box_t b = oct_leaf_box(tree, &tree->leaves[i]);
-    double lo[3] = {b.x.lo - margin, b.y.lo - margin, b.z.lo - margin};
-    double hi[3] = {b.x.hi + margin, b.y.hi + margin, b.z.hi + margin};
+    iv_box_t g = {{b.x.lo - margin, b.x.hi + margin},
+                  {b.y.lo - margin, b.y.hi + margin},
+                  {b.z.lo - margin, b.z.hi + margin}};
     for (int k = 0; k < 16; k++) {
-        double p[3];
-        for (int a = 0; a < 3; a++) {
-            if (k < 8) /* the corners of the grown box */
-                p[a] = (k >> a & 1) ? hi[a] : lo[a];
-            else if (k == 8)
-                p[a] = 0.5 * lo[a] + 0.5 * hi[a];
-            else
-                p[a] = lo[a] + (hi[a] - lo[a]) * tu_uniform(rng);
-        }
+        double p[3]; /* corners of the grown box, its centre, its faces, inside */
+        tu_box_point(&g, k, rng, p);
         for (int e = 0; e < 2; e++) {
             int ok = same_value(root, leaf, p, e ? ORACLE_CONST_HI : ORACLE_CONST_LO);
             if (ok == 0)

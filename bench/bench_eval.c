@@ -1,13 +1,16 @@
 /* Benchmark: nanoseconds per tape clause and per box (or point) for the point,
- * interval and interval+gradient evaluators, in batches of TAPE_LANES, on
- * scene files.  Usage: ivoct_bench_eval [--seconds S] SCENE...
- * Prints one row per scene and the ratios interval/point and gradient/interval. */
+ * interval, interval+gradient and affine (ILIE) evaluators, with calls of
+ * TAPE_BATCH boxes, on scene files, for every SIMD path this machine runs
+ * (side by side in one run).  Usage: ivoct_bench_eval [--seconds S] SCENE...
+ * Prints one row per scene and path, and the ratios interval/point and
+ * gradient/interval. */
 #define _POSIX_C_SOURCE 200809L
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
+#include "../ilie/ilie.h"
 #include "../scene/scene.h"
 
 static double now(void)
@@ -27,24 +30,32 @@ typedef struct {
     iv_t F[NBOX];
     iv_grad_t G[NBOX];
     double P[NBOX];
+    ilie_ws_t *iws;
+    ilie_t A[NBOX];
 } bench_t;
 
 static void run_point(bench_t *b)
 {
-    for (int i = 0; i < NBOX; i += TAPE_LANES)
-        tape_eval_point(b->t, b->ws, TAPE_LANES, b->px + i, b->py + i, b->pz + i, b->P + i);
+    for (int i = 0; i < NBOX; i += TAPE_BATCH)
+        tape_eval_point(b->t, b->ws, TAPE_BATCH, b->px + i, b->py + i, b->pz + i, b->P + i);
 }
 
 static void run_interval(bench_t *b)
 {
-    for (int i = 0; i < NBOX; i += TAPE_LANES)
-        tape_eval_interval(b->t, b->ws, TAPE_LANES, b->box + i, b->F + i);
+    for (int i = 0; i < NBOX; i += TAPE_BATCH)
+        tape_eval_interval(b->t, b->ws, TAPE_BATCH, b->box + i, b->F + i);
 }
 
 static void run_grad(bench_t *b)
 {
-    for (int i = 0; i < NBOX; i += TAPE_LANES)
-        tape_eval_grad(b->t, b->ws, TAPE_LANES, b->box + i, b->G + i);
+    for (int i = 0; i < NBOX; i += TAPE_BATCH)
+        tape_eval_grad(b->t, b->ws, TAPE_BATCH, b->box + i, b->G + i);
+}
+
+static void run_affine(bench_t *b)
+{
+    for (int i = 0; i < NBOX; i += TAPE_BATCH)
+        ilie_eval(b->t, b->iws, TAPE_BATCH, b->box + i, b->A + i);
 }
 
 /* ns per clause per box: repeat for about `seconds`, best of 3 rounds */
@@ -78,8 +89,10 @@ int main(int argc, char **argv)
         fprintf(stderr, "usage: ivoct_bench_eval [--seconds S] SCENE...\n");
         return 2;
     }
-    printf("%-26s %7s %9s %9s %9s %8s %8s\n", "scene", "clauses", "point_ns", "interval_ns",
-           "grad_ns", "iv/pt", "grad/iv");
+    printf("%-26s %-9s %7s %9s %11s %9s %9s %7s %8s\n", "scene", "simd", "clauses", "point_ns",
+           "interval_ns", "grad_ns", "affine_ns", "iv/pt", "grad/iv");
+    char paths[128];
+    snprintf(paths, sizeof paths, "%s", tape_simd_paths());
     bench_t *b = malloc(sizeof *b);
     uint64_t seed = 12345;
     for (int a = first; a < argc; a++) {
@@ -93,6 +106,7 @@ int main(int argc, char **argv)
         }
         b->t = s.tape;
         b->ws = tape_ws_new(s.tape->n);
+        b->iws = ilie_ws_new(s.tape->n);
         /* cells of a depth-6 octree at random places, like the cells the
          * builder evaluates */
         for (int i = 0; i < NBOX; i++) {
@@ -108,12 +122,22 @@ int main(int argc, char **argv)
             b->box[i] = (iv_box_t){{c[0], c[0] + w[0]}, {c[1], c[1] + w[1]}, {c[2], c[2] + w[2]}};
             b->px[i] = c[0], b->py[i] = c[1], b->pz[i] = c[2];
         }
-        double pt = measure(b, run_point, seconds);
-        double iv = measure(b, run_interval, seconds);
-        double gr = measure(b, run_grad, seconds);
-        printf("%-26s %7u %9.3f %9.3f %9.3f %8.2f %8.2f\n", s.source.name, s.tape->n, pt, iv, gr,
-               iv / pt, gr / iv);
+        /* the affine evaluator has one path: measured once */
+        double af = measure(b, run_affine, seconds);
+        char list[128];
+        memcpy(list, paths, sizeof list);
+        for (char *save = NULL, *p = strtok_r(list, " ", &save); p; p = strtok_r(NULL, " ", &save)) {
+            if (!tape_simd_available(p) || tape_simd_select(p, NULL))
+                continue;
+            double pt = measure(b, run_point, seconds);
+            double iv = measure(b, run_interval, seconds);
+            double gr = measure(b, run_grad, seconds);
+            printf("%-26s %-9s %7u %9.3f %11.3f %9.3f %9.3f %7.2f %8.2f\n", s.source.name, p,
+                   s.tape->n, pt, iv, gr, af, iv / pt, gr / iv);
+        }
+        tape_simd_select(NULL, NULL);
         tape_ws_free(b->ws);
+        ilie_ws_free(b->iws);
         scene_free(&s);
     }
     free(b);

@@ -121,8 +121,8 @@ static int write_stats(const scene_t *s, const oct_tree_t *t, const char *path,
                "  \"bytes_per_leaf\": ",
             st->peak_bytes, t->n_nodes, storage);
     cli_json_double(o, t->n_leaves ? (double)storage / t->n_leaves : 0.0);
-    fprintf(o, ",\n  \"leaf_record_bytes\": %zu,\n  \"threads\": %d\n}\n", sizeof(oct_leaf_t),
-            st->threads);
+    fprintf(o, ",\n  \"leaf_record_bytes\": %zu,\n  \"threads\": %d,\n  \"simd\": \"%s\"\n}\n",
+            sizeof(oct_leaf_t), st->threads, tape_simd_name());
     return io_commit(&f, err);
 }
 

@@ -169,9 +169,9 @@ static int write_stats(const char *path, const scene_t *s, ray_method_t method, 
             (unsigned long long)st->tangent_hits);
     cli_json_double(o, st->time_s);
     fprintf(o,
-            ",\n  \"tape_evals\": %llu,\n  \"tape_lanes\": %d,\n  \"segments\": %llu,\n"
+            ",\n  \"tape_evals\": %llu,\n  \"simd\": \"%s\",\n  \"segments\": %llu,\n"
             "  \"leaves_visited\": %llu,\n  \"threads\": %d",
-            (unsigned long long)st->tape_evals, TAPE_LANES, (unsigned long long)st->segments,
+            (unsigned long long)st->tape_evals, tape_simd_name(), (unsigned long long)st->segments,
             (unsigned long long)st->leaves, st->threads);
     if (oi->tree) {
         const oct_tree_t *t = oi->tree;

@@ -1,7 +1,9 @@
 /* ivoct — the command line: dispatch to subcommands. */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
+#include "../expr/tape.h"
 #include "cli.h"
 
 static const char USAGE[] =
@@ -23,7 +25,9 @@ static const char USAGE[] =
     "                       [--frames N] [--stats F.json] [--quiet]\n"
     "\n"
     "Run 'ivoct COMMAND --help' for the options of a command.\n"
-    "Exit codes: 0 ok, 1 runtime failure, 2 usage or input error.\n";
+    "Exit codes: 0 ok, 1 runtime failure, 2 usage or input error.\n"
+    "Environment: IVOCT_SIMD=portable|avx2|avx512 forces the evaluators' SIMD path\n"
+    "(default: the widest this CPU runs; every path gives the same results).\n";
 
 int main(int argc, char **argv)
 {
@@ -36,8 +40,18 @@ int main(int argc, char **argv)
         fputs(USAGE, stdout);
         return EXIT_OK;
     }
+    /* a path forced by the environment must exist and run here: a typo
+     * would otherwise measure the wrong path without a word */
+    const char *simd = getenv("IVOCT_SIMD");
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    if (simd && tape_simd_select(simd, &err)) {
+        fprintf(stderr, "ivoct: IVOCT_SIMD: %s\n", err.msg);
+        return EXIT_USAGE;
+    }
     if (!strcmp(cmd, "--version")) {
-        printf("ivoct %s\n", IVOCT_VERSION);
+        printf("ivoct %s\nSIMD path: %s (this build has: %s)\n", IVOCT_VERSION, tape_simd_name(),
+               tape_simd_paths());
         return EXIT_OK;
     }
     if (!strcmp(cmd, "eval"))

@@ -1,25 +1,32 @@
-/* ivoct — evaluators over a tape: point, interval, interval + gradient.
+/* ivoct — the evaluators over a tape: point, interval, interval + gradient
+ * and along a ray, and the choice of SIMD path.
  *
- * Every evaluator makes one pass over the tape per chunk of TAPE_LANES boxes,
- * and for each clause runs a loop over the lanes.  The loops have a constant
- * trip count (short chunks are padded with copies of their first lane), so the
- * compiler unrolls and vectorises them; the switch on the op is paid once per
- * clause, not once per box.  Slots are laid out clause-major:
- * slot[i * TAPE_LANES + lane]. */
+ * The point, interval and gradient evaluators run structure-of-arrays passes
+ * (kernels.h, compiled per SIMD target): up to TAPE_BATCH boxes per pass over
+ * the tape, every slot an array per bound with the lanes innermost, so the
+ * switch on the op is paid once per clause and batch and the lane loops are
+ * vectorised.  This file moves the caller's boxes into the workspace's input
+ * arrays (a short batch padded with copies of its first box to a multiple of
+ * KERNEL_ALIGN lanes) and the results out. */
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "tape.h"
+#include "eval_internal.h"
 
-#define L TAPE_LANES
+#define B TAPE_BATCH
+/* lanes of the ray evaluator's pass (array-of-structs, below) */
+#define RL 8
 
 struct tape_ws {
     uint32_t max_clauses;
-    double *point;    /* max_clauses * L */
-    iv_t *iv;         /* max_clauses * L */
-    iv_grad_t *grad;  /* max_clauses * L */
-    iv_t *dir;        /* max_clauses * L: directional derivatives (tape_eval_ray) */
-    double *mag;      /* max_clauses * L: rounding magnitudes (tape_eval_ray) */
+    double *point;      /* max_clauses * B */
+    double *lo, *hi;    /* max_clauses * B each */
+    double *grad;       /* max_clauses * G_ARRAYS * B */
+    double *in;         /* 6 * B: the inputs of a pass */
+    uint8_t *deps;      /* max_clauses: tape_deps of the gradient pass */
+    iv_t *rv, *rd;      /* max_clauses * RL: values, derivatives along d (tape_eval_ray) */
+    double *rm;         /* max_clauses * RL: rounding magnitudes (tape_eval_ray) */
 };
 
 tape_ws_t *tape_ws_new(uint32_t max_clauses)
@@ -29,17 +36,30 @@ tape_ws_t *tape_ws_new(uint32_t max_clauses)
         return NULL;
     if (max_clauses == 0)
         max_clauses = 1;
+    size_t n = max_clauses;
     ws->max_clauses = max_clauses;
-    ws->point = malloc((size_t)max_clauses * L * sizeof *ws->point);
-    ws->iv = malloc((size_t)max_clauses * L * sizeof *ws->iv);
-    ws->grad = malloc((size_t)max_clauses * L * sizeof *ws->grad);
-    ws->dir = malloc((size_t)max_clauses * L * sizeof *ws->dir);
-    ws->mag = malloc((size_t)max_clauses * L * sizeof *ws->mag);
-    if (!ws->point || !ws->iv || !ws->grad || !ws->dir || !ws->mag) {
+    ws->point = malloc(n * B * sizeof *ws->point);
+    ws->lo = malloc(n * B * sizeof *ws->lo);
+    ws->hi = malloc(n * B * sizeof *ws->hi);
+    ws->grad = malloc(n * G_ARRAYS * B * sizeof *ws->grad);
+    ws->in = malloc(6 * B * sizeof *ws->in);
+    ws->deps = malloc(n);
+    ws->rv = malloc(n * RL * sizeof *ws->rv);
+    ws->rd = malloc(n * RL * sizeof *ws->rd);
+    ws->rm = malloc(n * RL * sizeof *ws->rm);
+    if (!ws->point || !ws->lo || !ws->hi || !ws->grad || !ws->in || !ws->deps || !ws->rv ||
+        !ws->rd || !ws->rm) {
         tape_ws_free(ws);
         return NULL;
     }
     return ws;
+}
+
+size_t tape_ws_bytes(uint32_t max_clauses)
+{
+    size_t n = max_clauses ? max_clauses : 1;
+    return sizeof(struct tape_ws) + n * B * sizeof(double) * (3 + G_ARRAYS) +
+           6 * B * sizeof(double) + n + n * RL * (2 * sizeof(iv_t) + sizeof(double));
 }
 
 void tape_ws_free(tape_ws_t *ws)
@@ -47,168 +67,183 @@ void tape_ws_free(tape_ws_t *ws)
     if (!ws)
         return;
     free(ws->point);
-    free(ws->iv);
+    free(ws->lo);
+    free(ws->hi);
     free(ws->grad);
-    free(ws->dir);
-    free(ws->mag);
+    free(ws->in);
+    free(ws->deps);
+    free(ws->rv);
+    free(ws->rd);
+    free(ws->rm);
     free(ws);
 }
 
-/* ---- point ------------------------------------------------------------------ */
+/* ---- the SIMD path ------------------------------------------------------------ */
 
-/* x^n by squaring, lanes innermost: much cheaper than pow() for the small
- * exponents of polynomial surfaces, and as accurate for a non-rigorous
- * evaluator */
-static void point_powi(double *restrict o, const double *a, int n)
+static const tape_kernels_t *const PATHS[] = {
+#ifdef IVOCT_SIMD_X86
+    &tape_kernels_avx512,
+    &tape_kernels_avx2,
+#endif
+    &tape_kernels_portable,
+};
+enum { NPATHS = sizeof PATHS / sizeof PATHS[0] };
+
+/* Can this CPU (and its OS, which must save the wide registers: the
+ * compiler's cpu check reads XGETBV for that) run the path? */
+static int cpu_runs(const tape_kernels_t *k)
 {
-    unsigned m = n < 0 ? 0u - (unsigned)n : (unsigned)n;
-    double r[L], x[L];
-    for (int k = 0; k < L; k++)
-        r[k] = 1.0, x[k] = a[k];
-    for (; m; m >>= 1) {
-        if (m & 1u)
-            for (int k = 0; k < L; k++) r[k] *= x[k];
-        for (int k = 0; k < L; k++) x[k] *= x[k];
-    }
-    for (int k = 0; k < L; k++)
-        o[k] = n < 0 ? 1.0 / r[k] : r[k];
+#ifdef IVOCT_SIMD_X86
+    if (k == &tape_kernels_avx2)
+        return __builtin_cpu_supports("avx2");
+    if (k == &tape_kernels_avx512)
+        return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+               __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw");
+#endif
+    return k == &tape_kernels_portable;
 }
 
-static void point_chunk(const tape_t *t, double *restrict S, const double *x,
-                        const double *y, const double *z)
+static const tape_kernels_t *path_named(const char *name)
 {
-    for (uint32_t i = 0; i < t->n; i++) {
-        const tape_clause_t *c = &t->clauses[i];
-        double *restrict o = S + (size_t)i * L;
-        const double *a = S + (size_t)c->a * L, *b = S + (size_t)c->b * L;
-        switch ((tape_op_t)c->op) {
-        case TAPE_CONST: {
-            double v = iv_mid(c->c);
-            for (int k = 0; k < L; k++) o[k] = v;
-            break;
-        }
-        case TAPE_X: for (int k = 0; k < L; k++) o[k] = x[k]; break;
-        case TAPE_Y: for (int k = 0; k < L; k++) o[k] = y[k]; break;
-        case TAPE_Z: for (int k = 0; k < L; k++) o[k] = z[k]; break;
-        case TAPE_NEG: for (int k = 0; k < L; k++) o[k] = -a[k]; break;
-        case TAPE_SQR: for (int k = 0; k < L; k++) o[k] = a[k] * a[k]; break;
-        case TAPE_POWI: point_powi(o, a, (int)c->c.lo); break;
-        case TAPE_POWR: for (int k = 0; k < L; k++) o[k] = pow(a[k], c->c.lo); break;
-        case TAPE_SQRT: for (int k = 0; k < L; k++) o[k] = sqrt(a[k]); break;
-        case TAPE_EXP: for (int k = 0; k < L; k++) o[k] = exp(a[k]); break;
-        case TAPE_LOG: for (int k = 0; k < L; k++) o[k] = log(a[k]); break;
-        case TAPE_SIN: for (int k = 0; k < L; k++) o[k] = sin(a[k]); break;
-        case TAPE_COS: for (int k = 0; k < L; k++) o[k] = cos(a[k]); break;
-        case TAPE_TAN: for (int k = 0; k < L; k++) o[k] = tan(a[k]); break;
-        case TAPE_ATAN: for (int k = 0; k < L; k++) o[k] = atan(a[k]); break;
-        case TAPE_ABS: for (int k = 0; k < L; k++) o[k] = fabs(a[k]); break;
-        case TAPE_ADD: for (int k = 0; k < L; k++) o[k] = a[k] + b[k]; break;
-        case TAPE_SUB: for (int k = 0; k < L; k++) o[k] = a[k] - b[k]; break;
-        case TAPE_MUL: for (int k = 0; k < L; k++) o[k] = a[k] * b[k]; break;
-        case TAPE_DIV: for (int k = 0; k < L; k++) o[k] = a[k] / b[k]; break;
-        /* NaN (undefined) propagates, unlike fmin/fmax */
-        case TAPE_MIN:
-            for (int k = 0; k < L; k++) o[k] = a[k] != a[k] ? a[k] : (a[k] < b[k] ? a[k] : b[k]);
-            break;
-        case TAPE_MAX:
-            for (int k = 0; k < L; k++) o[k] = a[k] != a[k] ? a[k] : (a[k] > b[k] ? a[k] : b[k]);
-            break;
-        case TAPE_OP_COUNT: break;
-        }
+    for (int i = 0; i < NPATHS; i++)
+        if (!strcmp(PATHS[i]->name, name))
+            return PATHS[i];
+    return NULL;
+}
+
+static _Atomic(const tape_kernels_t *) active_path;
+
+/* The first path of PATHS the CPU runs, unless IVOCT_SIMD names one it runs. */
+static const tape_kernels_t *default_path(void)
+{
+    const char *env = getenv("IVOCT_SIMD");
+    const tape_kernels_t *k = env ? path_named(env) : NULL;
+    if (k && cpu_runs(k))
+        return k;
+    for (int i = 0; i < NPATHS; i++)
+        if (cpu_runs(PATHS[i]))
+            return PATHS[i];
+    return &tape_kernels_portable;
+}
+
+static const tape_kernels_t *kernels(void)
+{
+    const tape_kernels_t *k = atomic_load_explicit(&active_path, memory_order_acquire);
+    if (!k) {
+        k = default_path();
+        atomic_store_explicit(&active_path, k, memory_order_release);
+    }
+    return k;
+}
+
+const char *tape_simd_name(void) { return kernels()->name; }
+
+const char *tape_simd_paths(void)
+{
+#ifdef IVOCT_SIMD_X86
+    return "portable avx2 avx512";
+#else
+    return "portable";
+#endif
+}
+
+int tape_simd_available(const char *name)
+{
+    const tape_kernels_t *k = name ? path_named(name) : NULL;
+    return k && cpu_runs(k);
+}
+
+int tape_simd_select(const char *name, ivoct_error_t *err)
+{
+    if (!name) {
+        atomic_store(&active_path, default_path());
+        return 0;
+    }
+    const tape_kernels_t *k = path_named(name);
+    if (!k) {
+        ivoct_error_set(err, "unknown SIMD path '%s' (this build has: %s)", name,
+                        tape_simd_paths());
+        return -1;
+    }
+    if (!cpu_runs(k)) {
+        ivoct_error_set(err, "SIMD path '%s' needs CPU features this machine lacks", name);
+        return -1;
+    }
+    atomic_store(&active_path, k);
+    return 0;
+}
+
+/* ---- moving batches in and out ---------------------------------------------------- */
+
+static size_t padded(size_t m) { return (m + KERNEL_ALIGN - 1) / KERNEL_ALIGN * KERNEL_ALIGN; }
+
+/* The input arrays of a pass over m boxes, np >= m lanes. */
+static void load_boxes(tape_ws_t *ws, const iv_box_t *box, size_t m, size_t np)
+{
+    double *in = ws->in;
+    for (size_t k = 0; k < np; k++) {
+        const iv_box_t *b = &box[k < m ? k : 0];
+        in[0 * B + k] = b->x.lo, in[1 * B + k] = b->x.hi;
+        in[2 * B + k] = b->y.lo, in[3 * B + k] = b->y.hi;
+        in[4 * B + k] = b->z.lo, in[5 * B + k] = b->z.hi;
     }
 }
+
+#define PASS_IN(ws)                                                                          \
+    {                                                                                        \
+        (ws)->in, (ws)->in + B, (ws)->in + 2 * B, (ws)->in + 3 * B, (ws)->in + 4 * B,        \
+            (ws)->in + 5 * B                                                                 \
+    }
+
+/* ---- point ------------------------------------------------------------------------ */
 
 void tape_eval_point(const tape_t *t, tape_ws_t *ws, size_t n, const double *x,
                      const double *y, const double *z, double *out)
 {
-    for (size_t base = 0; base < n; base += L) {
-        size_t m = n - base < L ? n - base : L;
-        double cx[L], cy[L], cz[L];
-        for (size_t k = 0; k < L; k++) {
+    const tape_kernels_t *kern = kernels();
+    const double *in[6] = PASS_IN(ws);
+    for (size_t base = 0; base < n; base += B) {
+        size_t m = n - base < B ? n - base : B, np = padded(m);
+        for (size_t k = 0; k < np; k++) {
             size_t j = base + (k < m ? k : 0);
-            cx[k] = x[j], cy[k] = y[j], cz[k] = z[j];
+            ws->in[k] = x[j], ws->in[B + k] = y[j], ws->in[2 * B + k] = z[j];
         }
-        point_chunk(t, ws->point, cx, cy, cz);
-        const double *r = ws->point + (size_t)(t->n - 1) * L;
-        memcpy(out + base, r, m * sizeof *out);
+        kern->point(t, ws->point, np, in);
+        memcpy(out + base, ws->point + (size_t)(t->n - 1) * B, m * sizeof *out);
     }
 }
 
-/* ---- interval --------------------------------------------------------------- */
+/* ---- interval --------------------------------------------------------------------- */
 
-static void interval_chunk(const tape_t *t, iv_t *restrict S, int nl, const iv_box_t *box)
-{
-    for (uint32_t i = 0; i < t->n; i++) {
-        const tape_clause_t *c = &t->clauses[i];
-        iv_t *restrict o = S + (size_t)i * L;
-        const iv_t *a = S + (size_t)c->a * L, *b = S + (size_t)c->b * L;
-        switch ((tape_op_t)c->op) {
-        case TAPE_CONST: for (int k = 0; k < nl; k++) o[k] = c->c; break;
-        case TAPE_X: for (int k = 0; k < nl; k++) o[k] = box[k].x; break;
-        case TAPE_Y: for (int k = 0; k < nl; k++) o[k] = box[k].y; break;
-        case TAPE_Z: for (int k = 0; k < nl; k++) o[k] = box[k].z; break;
-        case TAPE_NEG: for (int k = 0; k < nl; k++) o[k] = iv_neg(a[k]); break;
-        case TAPE_SQR: for (int k = 0; k < nl; k++) o[k] = iv_sqr(a[k]); break;
-        case TAPE_POWI: {
-            int n = (int)c->c.lo;
-            for (int k = 0; k < nl; k++) o[k] = iv_powi(a[k], n);
-            break;
-        }
-        case TAPE_POWR: for (int k = 0; k < nl; k++) o[k] = iv_powr(a[k], c->c.lo); break;
-        case TAPE_SQRT: for (int k = 0; k < nl; k++) o[k] = iv_sqrt(a[k]); break;
-        case TAPE_EXP: for (int k = 0; k < nl; k++) o[k] = iv_exp(a[k]); break;
-        case TAPE_LOG: for (int k = 0; k < nl; k++) o[k] = iv_log(a[k]); break;
-        case TAPE_SIN: for (int k = 0; k < nl; k++) o[k] = iv_sin(a[k]); break;
-        case TAPE_COS: for (int k = 0; k < nl; k++) o[k] = iv_cos(a[k]); break;
-        case TAPE_TAN: for (int k = 0; k < nl; k++) o[k] = iv_tan(a[k]); break;
-        case TAPE_ATAN: for (int k = 0; k < nl; k++) o[k] = iv_atan(a[k]); break;
-        case TAPE_ABS: for (int k = 0; k < nl; k++) o[k] = iv_abs(a[k]); break;
-        case TAPE_ADD: for (int k = 0; k < nl; k++) o[k] = iv_add(a[k], b[k]); break;
-        case TAPE_SUB: for (int k = 0; k < nl; k++) o[k] = iv_sub(a[k], b[k]); break;
-        case TAPE_MUL: for (int k = 0; k < nl; k++) o[k] = iv_mul(a[k], b[k]); break;
-        case TAPE_DIV: for (int k = 0; k < nl; k++) o[k] = iv_div(a[k], b[k]); break;
-        case TAPE_MIN: for (int k = 0; k < nl; k++) o[k] = iv_min(a[k], b[k]); break;
-        case TAPE_MAX: for (int k = 0; k < nl; k++) o[k] = iv_max(a[k], b[k]); break;
-        case TAPE_OP_COUNT: break;
-        }
-    }
-}
-
-/* Copy up to L boxes into a full chunk, padding with the first. */
-static void fill_chunk(iv_box_t *chunk, const iv_box_t *box, size_t m)
-{
-    for (size_t k = 0; k < L; k++)
-        chunk[k] = box[k < m ? k : 0];
-}
-
-/* The choices of the m boxes of the chunk just evaluated into S (see
+/* The choices of the m boxes of the pass just run (see
  * tape_eval_interval_choices); comparisons with an empty (NaN) operand are
  * false, so nothing is decided there. */
-static void chunk_choices(const tape_t *t, const iv_t *S, size_t m, uint8_t *choices)
+static void pass_choices(const tape_t *t, const tape_ws_t *ws, size_t m, uint8_t *choices)
 {
     memset(choices, TAPE_CHOICE_BOTH, m * t->n);
     for (uint32_t i = 0; i < t->n; i++) {
         const tape_clause_t *c = &t->clauses[i];
-        const iv_t *a = S + (size_t)c->a * L, *b = S + (size_t)c->b * L;
+        const double *al = ws->lo + (size_t)c->a * B, *ah = ws->hi + (size_t)c->a * B;
+        const double *bl = ws->lo + (size_t)c->b * B, *bh = ws->hi + (size_t)c->b * B;
         uint8_t *out = choices + i;
         switch ((tape_op_t)c->op) {
         case TAPE_MIN:
             for (size_t k = 0; k < m; k++)
-                out[k * t->n] = a[k].hi <= b[k].lo   ? TAPE_CHOICE_A
-                                : b[k].hi <= a[k].lo ? TAPE_CHOICE_B
-                                                     : TAPE_CHOICE_BOTH;
+                out[k * t->n] = ah[k] <= bl[k]   ? TAPE_CHOICE_A
+                                : bh[k] <= al[k] ? TAPE_CHOICE_B
+                                                 : TAPE_CHOICE_BOTH;
             break;
         case TAPE_MAX:
             for (size_t k = 0; k < m; k++)
-                out[k * t->n] = a[k].lo >= b[k].hi   ? TAPE_CHOICE_A
-                                : b[k].lo >= a[k].hi ? TAPE_CHOICE_B
-                                                     : TAPE_CHOICE_BOTH;
+                out[k * t->n] = al[k] >= bh[k]   ? TAPE_CHOICE_A
+                                : bl[k] >= ah[k] ? TAPE_CHOICE_B
+                                                 : TAPE_CHOICE_BOTH;
             break;
         case TAPE_ABS:
             for (size_t k = 0; k < m; k++)
-                out[k * t->n] = a[k].lo >= 0   ? TAPE_CHOICE_A
-                                : a[k].hi <= 0 ? TAPE_CHOICE_NEG_A
-                                               : TAPE_CHOICE_BOTH;
+                out[k * t->n] = al[k] >= 0   ? TAPE_CHOICE_A
+                                : ah[k] <= 0 ? TAPE_CHOICE_NEG_A
+                                             : TAPE_CHOICE_BOTH;
             break;
         default:
             break;
@@ -219,14 +254,17 @@ static void chunk_choices(const tape_t *t, const iv_t *S, size_t m, uint8_t *cho
 void tape_eval_interval_choices(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *box,
                                 iv_t *out, uint8_t *choices)
 {
-    for (size_t base = 0; base < n; base += L) {
-        size_t m = n - base < L ? n - base : L;
-        iv_box_t chunk[L];
-        fill_chunk(chunk, box + base, m);
-        interval_chunk(t, ws->iv, L, chunk);
-        memcpy(out + base, ws->iv + (size_t)(t->n - 1) * L, m * sizeof *out);
+    const tape_kernels_t *kern = kernels();
+    const double *in[6] = PASS_IN(ws);
+    const size_t last = (size_t)(t->n - 1) * B;
+    for (size_t base = 0; base < n; base += B) {
+        size_t m = n - base < B ? n - base : B, np = padded(m);
+        load_boxes(ws, box + base, m, np);
+        kern->interval(t, ws->lo, ws->hi, np, in);
+        for (size_t k = 0; k < m; k++)
+            out[base + k] = iv_make(ws->lo[last + k], ws->hi[last + k]);
         if (choices)
-            chunk_choices(t, ws->iv, m, choices + base * t->n);
+            pass_choices(t, ws, m, choices + base * t->n);
     }
 }
 
@@ -236,168 +274,18 @@ void tape_eval_interval(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t
     tape_eval_interval_choices(t, ws, n, box, out, NULL);
 }
 
-/* ---- interval + gradient ------------------------------------------------------
- * Forward mode: each slot carries f and its three partials as intervals.  Where
- * an operation is not differentiable (abs at 0, min/max at a tie) the partials
- * enclose every one-sided derivative, which is what the Lipschitz test needs. */
+/* ---- interval + gradient ------------------------------------------------------------ */
 
-static const iv_t ZERO = {0.0, 0.0};
-
-static inline iv_grad_t g_scale(iv_t v, iv_t s, iv_grad_t a)
+void tape_deps(const tape_t *t, uint8_t *deps)
 {
-    /* value v, gradient s * grad(a) */
-    iv_grad_t r = {v, iv_mul(s, a.dx), iv_mul(s, a.dy), iv_mul(s, a.dz)};
-    return r;
-}
-
-static inline iv_grad_t g_add(iv_grad_t a, iv_grad_t b)
-{
-    iv_grad_t r = {iv_add(a.v, b.v), iv_add(a.dx, b.dx), iv_add(a.dy, b.dy),
-                   iv_add(a.dz, b.dz)};
-    return r;
-}
-
-static inline iv_grad_t g_sub(iv_grad_t a, iv_grad_t b)
-{
-    iv_grad_t r = {iv_sub(a.v, b.v), iv_sub(a.dx, b.dx), iv_sub(a.dy, b.dy),
-                   iv_sub(a.dz, b.dz)};
-    return r;
-}
-
-static inline iv_grad_t g_neg(iv_grad_t a)
-{
-    iv_grad_t r = {iv_neg(a.v), iv_neg(a.dx), iv_neg(a.dy), iv_neg(a.dz)};
-    return r;
-}
-
-static inline iv_t mul_add(iv_t p, iv_t q, iv_t r, iv_t s)
-{
-    return iv_add(iv_mul(p, q), iv_mul(r, s));
-}
-
-static inline iv_grad_t g_mul(iv_grad_t a, iv_grad_t b)
-{
-    iv_grad_t r = {iv_mul(a.v, b.v), mul_add(a.dx, b.v, a.v, b.dx),
-                   mul_add(a.dy, b.v, a.v, b.dy), mul_add(a.dz, b.v, a.v, b.dz)};
-    return r;
-}
-
-/* (a/b)' = (a' - (a/b) b') / b */
-static inline iv_grad_t g_div(iv_grad_t a, iv_grad_t b)
-{
-    iv_t q = iv_div(a.v, b.v);
-    iv_grad_t r = {q, iv_div(iv_sub(a.dx, iv_mul(q, b.dx)), b.v),
-                   iv_div(iv_sub(a.dy, iv_mul(q, b.dy)), b.v),
-                   iv_div(iv_sub(a.dz, iv_mul(q, b.dz)), b.v)};
-    return r;
-}
-
-static inline iv_t g_hull_or_empty(iv_t a, iv_t b)
-{
-    /* an undefined branch makes the result undefined */
-    return iv_is_empty(a) || iv_is_empty(b) ? iv_empty() : iv_hull(a, b);
-}
-
-/* min/max: the branch that is certainly selected carries its gradient; else
- * the hull of both gradients. */
-static inline iv_grad_t g_select(iv_t v, iv_grad_t a, iv_grad_t b, int pick)
-{
-    if (pick < 0) {
-        iv_grad_t r = {v, a.dx, a.dy, a.dz};
-        return r;
-    }
-    if (pick > 0) {
-        iv_grad_t r = {v, b.dx, b.dy, b.dz};
-        return r;
-    }
-    iv_grad_t r = {v, g_hull_or_empty(a.dx, b.dx), g_hull_or_empty(a.dy, b.dy),
-                   g_hull_or_empty(a.dz, b.dz)};
-    return r;
-}
-
-/* A unary op's value over a and an enclosure of its derivative there (over
- * the points where it is differentiable; see interval.h), for the chain rule
- * of both forward-mode evaluators. */
-static inline void unary_vd(tape_op_t op, iv_t c, iv_t a, iv_t *v, iv_t *d)
-{
-    switch (op) {
-    case TAPE_SQR:
-        *v = iv_sqr(a), *d = iv_add(a, a);
-        break;
-    case TAPE_POWI: {
-        int n = (int)c.lo;
-        *v = iv_powi(a, n), *d = iv_mul(iv_point((double)n), iv_powi(a, n - 1));
-        break;
-    }
-    case TAPE_POWR:
-        /* d/dx x^r = r x^r / x, valid for x > 0, where x^r is defined */
-        *v = iv_powr(a, c.lo), *d = iv_mul(iv_point(c.lo), iv_div(*v, a));
-        break;
-    case TAPE_SQRT: *v = iv_sqrt(a), *d = iv_dsqrt(a); break;
-    case TAPE_EXP: *v = iv_exp(a), *d = *v; break;
-    case TAPE_LOG: *v = iv_log(a), *d = iv_dlog(a); break;
-    case TAPE_SIN: *v = iv_sin(a), *d = iv_cos(a); break;
-    case TAPE_COS: *v = iv_cos(a), *d = iv_neg(iv_sin(a)); break;
-    case TAPE_TAN: *v = iv_tan(a), *d = iv_dtan(a); break;
-    case TAPE_ATAN: *v = iv_atan(a), *d = iv_datan(a); break;
-    case TAPE_ABS: *v = iv_abs(a), *d = iv_dabs(a); break;
-    default: *v = *d = iv_entire(); break;
-    }
-}
-
-static iv_grad_t g_unary(tape_op_t op, iv_t c, iv_grad_t a)
-{
-    iv_t v, d;
-    unary_vd(op, c, a.v, &v, &d);
-    return g_scale(v, d, a);
-}
-
-/* min/max: -1 when a is certainly selected, 1 when b is, 0 when undecided */
-static inline int pick_min(iv_t a, iv_t b) { return a.hi <= b.lo ? -1 : b.hi <= a.lo ? 1 : 0; }
-static inline int pick_max(iv_t a, iv_t b) { return a.lo >= b.hi ? -1 : b.lo >= a.hi ? 1 : 0; }
-
-static inline iv_grad_t g_min(iv_grad_t a, iv_grad_t b)
-{
-    return g_select(iv_min(a.v, b.v), a, b, pick_min(a.v, b.v));
-}
-
-static inline iv_grad_t g_max(iv_grad_t a, iv_grad_t b)
-{
-    return g_select(iv_max(a.v, b.v), a, b, pick_max(a.v, b.v));
-}
-
-static void grad_chunk(const tape_t *t, iv_grad_t *restrict S, const iv_box_t *box)
-{
-    const iv_t one = {1.0, 1.0};
     for (uint32_t i = 0; i < t->n; i++) {
         const tape_clause_t *c = &t->clauses[i];
-        iv_grad_t *restrict o = S + (size_t)i * L;
-        const iv_grad_t *a = S + (size_t)c->a * L, *b = S + (size_t)c->b * L;
-        tape_op_t op = (tape_op_t)c->op;
-        switch (op) {
-        case TAPE_CONST:
-            for (int k = 0; k < L; k++) o[k] = (iv_grad_t){c->c, ZERO, ZERO, ZERO};
+        switch (tape_op_arity((tape_op_t)c->op)) {
+        case 0:
+            deps[i] = c->op == TAPE_X ? 1 : c->op == TAPE_Y ? 2 : c->op == TAPE_Z ? 4 : 0;
             break;
-        case TAPE_X:
-            for (int k = 0; k < L; k++) o[k] = (iv_grad_t){box[k].x, one, ZERO, ZERO};
-            break;
-        case TAPE_Y:
-            for (int k = 0; k < L; k++) o[k] = (iv_grad_t){box[k].y, ZERO, one, ZERO};
-            break;
-        case TAPE_Z:
-            for (int k = 0; k < L; k++) o[k] = (iv_grad_t){box[k].z, ZERO, ZERO, one};
-            break;
-        case TAPE_NEG: for (int k = 0; k < L; k++) o[k] = g_neg(a[k]); break;
-        case TAPE_ADD: for (int k = 0; k < L; k++) o[k] = g_add(a[k], b[k]); break;
-        case TAPE_SUB: for (int k = 0; k < L; k++) o[k] = g_sub(a[k], b[k]); break;
-        case TAPE_MUL: for (int k = 0; k < L; k++) o[k] = g_mul(a[k], b[k]); break;
-        case TAPE_DIV: for (int k = 0; k < L; k++) o[k] = g_div(a[k], b[k]); break;
-        case TAPE_MIN: for (int k = 0; k < L; k++) o[k] = g_min(a[k], b[k]); break;
-        case TAPE_MAX: for (int k = 0; k < L; k++) o[k] = g_max(a[k], b[k]); break;
-        case TAPE_OP_COUNT: break;
-        default:
-            for (int k = 0; k < L; k++) o[k] = g_unary(op, c->c, a[k]);
-            break;
+        case 1: deps[i] = deps[c->a]; break;
+        default: deps[i] = deps[c->a] | deps[c->b]; break;
         }
     }
 }
@@ -405,19 +293,26 @@ static void grad_chunk(const tape_t *t, iv_grad_t *restrict S, const iv_box_t *b
 void tape_eval_grad(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *box,
                     iv_grad_t *out)
 {
-    for (size_t base = 0; base < n; base += L) {
-        size_t m = n - base < L ? n - base : L;
-        iv_box_t chunk[L];
-        fill_chunk(chunk, box + base, m);
-        grad_chunk(t, ws->grad, chunk);
-        memcpy(out + base, ws->grad + (size_t)(t->n - 1) * L, m * sizeof *out);
+    const tape_kernels_t *kern = kernels();
+    const double *in[6] = PASS_IN(ws);
+    const double *r = ws->grad + (size_t)(t->n - 1) * G_ARRAYS * B;
+    tape_deps(t, ws->deps);
+    for (size_t base = 0; base < n; base += B) {
+        size_t m = n - base < B ? n - base : B, np = padded(m);
+        load_boxes(ws, box + base, m, np);
+        kern->grad(t, ws->deps, ws->grad, np, in);
+        for (size_t k = 0; k < m; k++)
+            out[base + k] = (iv_grad_t){{r[G_VLO * B + k], r[G_VHI * B + k]},
+                                        {r[G_XLO * B + k], r[G_XHI * B + k]},
+                                        {r[G_YLO * B + k], r[G_YHI * B + k]},
+                                        {r[G_ZLO * B + k], r[G_ZHI * B + k]}};
     }
 }
 
 /* ---- along a ray -----------------------------------------------------------------
  * Forward mode with one tangent, the direction d of the ray: a slot carries
- * its value (ws->iv), its derivative along d (ws->dir) and a magnitude
- * (ws->mag) bounding |∇u(p)·e| over every e with |e_i| <= rho_i.  The set of
+ * its value (ws->rv), its derivative along d (ws->rd) and a magnitude
+ * (ws->rm) bounding |∇u(p)·e| over every e with |e_i| <= rho_i.  The set of
  * those e is a box symmetric about 0, so every set ∇u(X)·e is symmetric too
  * and one non-negative bound per slot carries it, propagated in doubles
  * rounded up — the price of the rounding term is a few double operations per
@@ -446,11 +341,11 @@ static inline double mag_div(double x, double y)
 static void ray_chunk(const tape_t *t, tape_ws_t *ws, int nl, const iv_box_t *box,
                       const double d[3], const double (*rho)[3])
 {
-    iv_t *restrict V = ws->iv, *restrict D = ws->dir;
-    double *restrict M = ws->mag;
+    iv_t *restrict V = ws->rv, *restrict D = ws->rd;
+    double *restrict M = ws->rm;
     for (uint32_t i = 0; i < t->n; i++) {
         const tape_clause_t *c = &t->clauses[i];
-        const size_t oi = (size_t)i * L, ai = (size_t)c->a * L, bi = (size_t)c->b * L;
+        const size_t oi = (size_t)i * RL, ai = (size_t)c->a * RL, bi = (size_t)c->b * RL;
         iv_t *v = V + oi, *dv = D + oi;
         double *m = M + oi;
         const iv_t *av = V + ai, *ad = D + ai, *bv = V + bi, *bd = D + bi;
@@ -458,7 +353,7 @@ static void ray_chunk(const tape_t *t, tape_ws_t *ws, int nl, const iv_box_t *bo
         tape_op_t op = (tape_op_t)c->op;
         switch (op) {
         case TAPE_CONST:
-            for (int k = 0; k < nl; k++) v[k] = c->c, dv[k] = ZERO, m[k] = 0.0;
+            for (int k = 0; k < nl; k++) v[k] = c->c, dv[k] = iv_point(0.0), m[k] = 0.0;
             break;
         case TAPE_X:
             for (int k = 0; k < nl; k++) v[k] = box[k].x, dv[k] = iv_point(d[0]), m[k] = rho[k][0];
@@ -485,7 +380,7 @@ static void ray_chunk(const tape_t *t, tape_ws_t *ws, int nl, const iv_box_t *bo
         case TAPE_MUL:
             for (int k = 0; k < nl; k++) {
                 v[k] = iv_mul(av[k], bv[k]);
-                dv[k] = mul_add(ad[k], bv[k], av[k], bd[k]);
+                dv[k] = fm_mul_add(ad[k], bv[k], av[k], bd[k]);
                 m[k] = iv_add_up(mag_mul(am[k], mag_of(bv[k])), mag_mul(mag_of(av[k]), bm[k]));
             }
             break;
@@ -503,9 +398,9 @@ static void ray_chunk(const tape_t *t, tape_ws_t *ws, int nl, const iv_box_t *bo
         case TAPE_MAX:
             /* the branch certainly selected carries its derivative, else the hull */
             for (int k = 0; k < nl; k++) {
-                int pick = op == TAPE_MIN ? pick_min(av[k], bv[k]) : pick_max(av[k], bv[k]);
+                int pick = op == TAPE_MIN ? fm_pick_min(av[k], bv[k]) : fm_pick_max(av[k], bv[k]);
                 v[k] = op == TAPE_MIN ? iv_min(av[k], bv[k]) : iv_max(av[k], bv[k]);
-                dv[k] = pick < 0 ? ad[k] : pick > 0 ? bd[k] : g_hull_or_empty(ad[k], bd[k]);
+                dv[k] = pick < 0 ? ad[k] : pick > 0 ? bd[k] : fm_hull_or_empty(ad[k], bd[k]);
                 m[k] = pick < 0 ? am[k] : pick > 0 ? bm[k] : am[k] > bm[k] ? am[k] : bm[k];
             }
             break;
@@ -513,7 +408,7 @@ static void ray_chunk(const tape_t *t, tape_ws_t *ws, int nl, const iv_box_t *bo
         default:
             for (int k = 0; k < nl; k++) {
                 iv_t u, du;
-                unary_vd(op, c->c, av[k], &u, &du);
+                fm_unary(op, c->c, av[k], &u, &du);
                 v[k] = u;
                 dv[k] = iv_mul(du, ad[k]);
                 m[k] = mag_mul(mag_of(du), am[k]);
@@ -547,10 +442,21 @@ static void ray_box(const double o[3], const double d[3], iv_t T, iv_box_t *box)
 void tape_eval_ray(const tape_t *t, tape_ws_t *ws, const double o[3], const double d[3],
                    size_t n, const iv_t *T, iv_t *g, iv_t *dg, double *rnd)
 {
-    for (size_t base = 0; base < n; base += L) {
-        size_t m = n - base < L ? n - base : L;
-        iv_box_t chunk[L];
-        double rho[L][3];
+    if (!dg) { /* values only: the interval pass over the lanes' boxes */
+        iv_box_t chunk[B];
+        for (size_t base = 0; base < n; base += B) {
+            size_t m = n - base < B ? n - base : B;
+            for (size_t k = 0; k < m; k++)
+                ray_box(o, d, T[base + k], &chunk[k]);
+            tape_eval_interval(t, ws, m, chunk, g + base);
+        }
+        return;
+    }
+    const size_t last = (size_t)(t->n - 1) * RL;
+    for (size_t base = 0; base < n; base += RL) {
+        size_t m = n - base < RL ? n - base : RL;
+        iv_box_t chunk[RL];
+        double rho[RL][3];
         for (size_t k = 0; k < m; k++) {
             iv_t Tk = T[base + k];
             ray_box(o, d, Tk, &chunk[k]);
@@ -560,16 +466,10 @@ void tape_eval_ray(const tape_t *t, tape_ws_t *ws, const double o[3], const doub
             for (int i = 0; i < 3; i++)
                 rho[k][i] = iv_up(iv_up(fabs(o[i]) + iv_up(2.0 * tmax * fabs(d[i]))) * 0x1p-51);
         }
-        const size_t last = (size_t)(t->n - 1) * L;
-        if (!dg) {
-            interval_chunk(t, ws->iv, (int)m, chunk);
-            memcpy(g + base, ws->iv + last, m * sizeof *g);
-            continue;
-        }
         ray_chunk(t, ws, (int)m, chunk, d, (const double(*)[3])rho);
-        memcpy(g + base, ws->iv + last, m * sizeof *g);
-        memcpy(dg + base, ws->dir + last, m * sizeof *dg);
+        memcpy(g + base, ws->rv + last, m * sizeof *g);
+        memcpy(dg + base, ws->rd + last, m * sizeof *dg);
         if (rnd)
-            memcpy(rnd + base, ws->mag + last, m * sizeof *rnd);
+            memcpy(rnd + base, ws->rm + last, m * sizeof *rnd);
     }
 }

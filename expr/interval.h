@@ -69,7 +69,7 @@ static inline iv_t iv_make(double lo, double hi) { iv_t r = {lo, hi}; return r; 
 static inline iv_t iv_point(double x) { iv_t r = {x, x}; return r; }
 static inline iv_t iv_empty(void) { iv_t r = {NAN, NAN}; return r; }
 static inline iv_t iv_entire(void) { iv_t r = {-INFINITY, INFINITY}; return r; }
-static inline bool iv_is_empty(iv_t a) { return a.lo != a.lo || a.hi != a.hi; }
+static inline bool iv_is_empty(iv_t a) { return (a.lo != a.lo) | (a.hi != a.hi); }
 /* false for the empty set */
 static inline bool iv_contains(iv_t a, double x) { return a.lo <= x && x <= a.hi; }
 static inline double iv_mid(iv_t a) { return 0.5 * a.lo + 0.5 * a.hi; }
@@ -90,13 +90,13 @@ bool iv_from_decimal(const char *text, iv_t *out);
 static inline double iv_add_down(double x, double y)
 {
     double s = x + y;
-    return x == 0 || y == 0 ? s : iv_down(s);
+    return (x == 0) | (y == 0) ? s : iv_down(s);
 }
 
 static inline double iv_add_up(double x, double y)
 {
     double s = x + y;
-    return x == 0 || y == 0 ? s : iv_up(s);
+    return (x == 0) | (y == 0) ? s : iv_up(s);
 }
 
 static inline iv_t iv_add(iv_t a, iv_t b)
@@ -127,7 +127,8 @@ static inline double iv_mul_bound(double x, double y)
 }
 
 /* Multiplication without branches (it dominates the evaluators, and the lanes
- * vectorise only without them): the hull of the four end products, widened;
+ * vectorise only without them: hence & and | rather than && and ||, whose
+ * short circuits are branches): the hull of the four end products, widened;
  * a product of operands of known sign keeps that sign exactly. */
 static inline iv_t iv_mul(iv_t a, iv_t b)
 {
@@ -137,15 +138,17 @@ static inline iv_t iv_mul(iv_t a, iv_t b)
     double hi = p > q ? p : q, hi2 = r > s ? r : s;
     lo = iv_down(lo < lo2 ? lo : lo2);
     hi = iv_up(hi > hi2 ? hi : hi2);
-    int nonneg = (a.lo >= 0 && b.lo >= 0) || (a.hi <= 0 && b.hi <= 0);
-    int nonpos = (a.lo >= 0 && b.hi <= 0) || (a.hi <= 0 && b.lo >= 0);
-    lo = nonneg && lo < 0 ? 0.0 : lo;
-    hi = nonpos && hi > 0 ? -0.0 : hi;
+    int nonneg = ((a.lo >= 0) & (b.lo >= 0)) | ((a.hi <= 0) & (b.hi <= 0));
+    int nonpos = ((a.lo >= 0) & (b.hi <= 0)) | ((a.hi <= 0) & (b.lo >= 0));
+    /* (two selects each: gcc if-converts those, not a combined condition) */
+    double lo0 = lo < 0 ? 0.0 : lo, hi0 = hi > 0 ? -0.0 : hi;
+    lo = nonneg ? lo0 : lo;
+    hi = nonpos ? hi0 : hi;
     /* a factor [0,0] makes the product exactly 0 (see iv_add_down) */
-    int zero = (a.lo == 0 && a.hi == 0) || (b.lo == 0 && b.hi == 0);
+    int zero = ((a.lo == 0) & (a.hi == 0)) | ((b.lo == 0) & (b.hi == 0));
     lo = zero ? 0.0 : lo;
     hi = zero ? 0.0 : hi;
-    int empty = iv_is_empty(a) || iv_is_empty(b);
+    int empty = iv_is_empty(a) | iv_is_empty(b);
     iv_t out = {empty ? NAN : lo, empty ? NAN : hi};
     return out;
 }

@@ -97,16 +97,36 @@ void tape_free(tape_t *t);
 tape_t *tape_clone(const tape_t *t);
 
 /* ---- evaluating ---------------------------------------------------------------
- * Each evaluator takes n points or boxes and runs one pass over the tape with
- * the lanes innermost, so the compiler vectorises the per-clause loops.  A
- * workspace holds the slots; one per thread, sized for tapes of at most
- * max_clauses clauses and any n (larger n is processed in chunks of TAPE_LANES). */
-#define TAPE_LANES 8
+ * Each evaluator takes n points or boxes and runs one pass over the tape per
+ * batch of up to TAPE_BATCH of them, structure of arrays: every slot is an
+ * array of lower bounds and one of upper bounds (and the partials' for the
+ * gradient) with the lanes innermost, so the per-clause loops run in SIMD
+ * registers.  Give the evaluators many boxes per call: a call with few boxes
+ * pays a whole pass for them.  A workspace holds the slots; one per thread,
+ * sized for tapes of at most max_clauses clauses and any n. */
+#define TAPE_BATCH 64
 
 typedef struct tape_ws tape_ws_t;
 
 tape_ws_t *tape_ws_new(uint32_t max_clauses); /* NULL when out of memory */
 void tape_ws_free(tape_ws_t *ws);
+/* The bytes tape_ws_new(max_clauses) allocates (for memory budgets). */
+size_t tape_ws_bytes(uint32_t max_clauses);
+
+/* ---- SIMD paths ------------------------------------------------------------------
+ * The evaluators run on one of the SIMD paths: "portable" (what the compiler
+ * vectorises for the baseline CPU) everywhere, "avx2" and "avx512" on x86-64
+ * CPUs that have them.  Every path computes the same bits (the same IEEE
+ * operations in the same order, at different vector widths), so results never
+ * depend on the path.  By default the widest path the CPU runs is used, or
+ * the one the environment variable IVOCT_SIMD names when the CPU runs it. */
+const char *tape_simd_name(void);            /* the path in use */
+const char *tape_simd_paths(void);           /* this build's paths, space-separated */
+int tape_simd_available(const char *name);   /* does this build and CPU run it? */
+/* Use path name from now on (NULL: the default above).  0, or -1 with err set
+ * when the name is unknown or the CPU cannot run it.  Call before evaluating
+ * (not while other threads evaluate). */
+int tape_simd_select(const char *name, ivoct_error_t *err);
 
 /* Plain double evaluation (not rigorous: for sampling and baselines). */
 void tape_eval_point(const tape_t *t, tape_ws_t *ws, size_t n, const double *x,

@@ -8,7 +8,7 @@
 
 #include "affine.h"
 
-#define L TAPE_LANES
+#define L ILIE_LANES
 #define U 0x1p-53
 
 struct ilie_ws {

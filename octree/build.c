@@ -2,25 +2,61 @@
  *
  * A short breadth-first phase on one thread splits the box until there are
  * FRONTIER_CELLS cells to split (or none); then each of those cells' subtrees
- * is built depth-first by whichever thread is free, into a pool of its own.
- * The pools are concatenated in frontier order and the leaves put in Morton
- * order (pool.c), so the result does not depend on the number of threads.
- * Both phases split a cell the same way (split_cell): the chain (chain.c)
- * classifies its 8 children, empty ones and leaves are stored at once, and
- * each child to split goes to the phase's own continuation: into the next
- * frontier, or down the depth-first recursion. */
+ * is built by whichever thread is free, into a pool of its own, level by
+ * level (a wavefront): all the cells of a level that share a tape are
+ * classified in batches of CHAIN_BATCH children, so the evaluators get many
+ * boxes per pass.  Pruned tapes are kept once per level (tape_set.h), so the
+ * cells of a CSG scene whose pruned tapes are equal still share batches.  The
+ * pools are concatenated in frontier order and the leaves put in Morton
+ * order (pool.c), so the result depends neither on the number of threads nor
+ * on how cells were batched (every lane of a pass is computed on its own). */
 #include <math.h>
 #include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "build_internal.h"
+#include "tape_set.h"
 
 /* Enough subtrees to keep 2..8 threads busy with dynamic scheduling; a fixed
  * number, so that the layout does not depend on the thread count. */
 #define FRONTIER_CELLS 256
 
 /* ---- workers ------------------------------------------------------------------- */
+
+static size_t chain_scratch_bytes(void)
+{
+    return CHAIN_BATCH * (2 * sizeof(iv_t) + 2 * sizeof(int) + 2 * sizeof(iv_grad_t) +
+                          2 * sizeof(ilie_t) + sizeof(iv_box_t) + 3 * sizeof(double));
+}
+
+static int chain_scratch_init(chain_scratch_t *c)
+{
+    c->F = malloc(CHAIN_BATCH * sizeof *c->F);
+    c->open = malloc(CHAIN_BATCH * sizeof *c->open);
+    c->thin = malloc(CHAIN_BATCH * sizeof *c->thin);
+    c->grad = malloc(CHAIN_BATCH * sizeof *c->grad);
+    c->ilie = malloc(CHAIN_BATCH * sizeof *c->ilie);
+    c->open_boxes = malloc(CHAIN_BATCH * sizeof *c->open_boxes);
+    c->open_grad = malloc(CHAIN_BATCH * sizeof *c->open_grad);
+    c->open_F = malloc(CHAIN_BATCH * sizeof *c->open_F);
+    c->open_ilie = malloc(CHAIN_BATCH * sizeof *c->open_ilie);
+    c->centre = malloc(CHAIN_BATCH * sizeof *c->centre);
+    return c->F && c->open && c->thin && c->grad && c->ilie && c->open_boxes && c->open_grad &&
+                   c->open_F && c->open_ilie && c->centre
+               ? 0
+               : -1;
+}
+
+static void chain_scratch_free(chain_scratch_t *c)
+{
+    free(c->F), free(c->open), free(c->thin), free(c->grad), free(c->ilie);
+    free(c->open_boxes), free(c->open_grad), free(c->open_F), free(c->open_ilie);
+    free(c->centre);
+}
+
+static struct wave *wave_new(void);
+static void wave_free(build_t *b, struct wave *v);
 
 static int worker_init(worker_t *w, build_t *b)
 {
@@ -29,31 +65,27 @@ static int worker_init(worker_t *w, build_t *b)
     uint32_t n = b->tape->n;
     w->ws = tape_ws_new(n);
     w->scratch = malloc(3 * (size_t)n * sizeof *w->scratch);
-    w->choices = b->choices ? malloc(8 * (size_t)n) : NULL;
-    size_t ntapes = (size_t)(OCT_MAX_DEPTH + 1) * 8;
-    w->tape_store = b->choices ? malloc(ntapes * n * sizeof *w->tape_store) : NULL;
+    w->choices = b->choices ? malloc(CHAIN_BATCH * (size_t)n) : NULL;
     w->ilie_ws = (b->tests & OCT_TEST_ILIE) ? ilie_ws_new(n) : NULL;
-    if (!w->ws || !w->scratch ||
-        (b->choices && (!w->tape_store || !w->choices)) ||
+    w->wave = wave_new();
+    if (!w->ws || !w->scratch || !w->wave || chain_scratch_init(&w->chain) ||
+        (b->choices && !w->choices) ||
         ((b->tests & OCT_TEST_ILIE) && !w->ilie_ws))
         return -1;
-    if (b->choices)
-        for (int d = 0; d <= OCT_MAX_DEPTH; d++)
-            for (int k = 0; k < 8; k++)
-                w->tapes[d][k].clauses = w->tape_store + ((size_t)d * 8 + (size_t)k) * n;
-    /* the workspace holds TAPE_LANES lanes of every slot: interval, gradient, point */
-    build_account(b, (ptrdiff_t)(w->b->choices ? ntapes * n * sizeof *w->tape_store + 8 * n : 0) +
-                   (ptrdiff_t)((size_t)n * TAPE_LANES * (sizeof(double) + sizeof(iv_t) +
-                                                         sizeof(iv_grad_t))));
+    build_account(b, (ptrdiff_t)((b->choices ? CHAIN_BATCH * (size_t)n : 0) +
+                                 3 * (size_t)n * sizeof *w->scratch + chain_scratch_bytes() +
+                                 tape_ws_bytes(n)));
     return 0;
 }
 
 static void worker_free(worker_t *w)
 {
+    if (w->wave)
+        wave_free(w->b, w->wave);
     tape_ws_free(w->ws);
     ilie_ws_free(w->ilie_ws);
+    chain_scratch_free(&w->chain);
     free(w->scratch);
-    free(w->tape_store);
     free(w->choices);
 }
 
@@ -64,76 +96,236 @@ static cell_t child_cell(cell_t p, int k)
     return c;
 }
 
-/* What a phase does with a child to split, whose node word is p->nodes[slot]:
- * returns the word to store there, or -1 on failure. */
-typedef long (*split_fn)(worker_t *w, pool_t *p, cell_t kid, const decision_t *d, size_t slot,
-                         void *ctx);
-
-/* Split cell (tape t) into a new block of 8 nodes in pool p: classify the
- * children, store the empty ones and the leaves, hand each child to split to
- * on_split, in child order.  Returns the index of the block, or -1. */
-static long split_cell(worker_t *w, pool_t *p, cell_t cell, const tape_t *t, int single_use,
-                       split_fn on_split, void *ctx)
+static void count_split(worker_t *w, cell_t cell, const tape_t *t)
 {
     w->st.split++;
     w->st.split_by_depth[cell.depth]++;
     w->st.tape_length_sum_by_depth[cell.depth] += t->n;
-    cell_t kids[8];
-    decision_t dec[8];
-    iv_box_t boxes[8];
-    for (int k = 0; k < 8; k++)
-        kids[k] = child_cell(cell, k);
-    chain_children_boxes(w->b, cell, boxes);
-    chain_classify(w, t, single_use, kids, boxes, 8, dec);
-    long base = pool_block(w->b, p);
-    if (base < 0)
-        return -1;
-    for (int k = 0; k < 8; k++) {
-        long node;
-        if (dec[k].kind == EMPTY) {
-            node = OCT_NODE(OCT_EMPTY, dec[k].cls);
-        } else if (dec[k].kind == LEAF) {
-            long leaf = pool_leaf(w->b, p, kids[k], &dec[k]);
-            node = leaf < 0 ? -1 : (long)OCT_NODE(OCT_LEAF, leaf);
-        } else {
-            node = on_split(w, p, kids[k], &dec[k], (size_t)base + (size_t)k, ctx);
-        }
-        if (node < 0)
-            return -1;
-        p->nodes[base + k] = (oct_node_t)node;
-    }
-    return base;
 }
 
-/* ---- phase 2: a subtree, depth-first ----------------------------------------------- */
-
-static long build_subtree(worker_t *w, pool_t *p, cell_t cell, const tape_t *t,
-                          int single_use);
-
-static long descend(worker_t *w, pool_t *p, cell_t kid, const decision_t *d, size_t slot,
-                    void *ctx)
+/* The node word of a child the chain decided is empty or a leaf (stored in
+ * pool p); -1 on failure. */
+static long settled_node(worker_t *w, pool_t *p, cell_t kid, const decision_t *d)
 {
-    (void)slot, (void)ctx;
-    long sub = build_subtree(w, p, kid, d->tape, d->single_use);
-    return sub < 0 ? -1 : (long)OCT_NODE(OCT_INTERIOR, sub);
+    if (d->kind == EMPTY)
+        return (long)OCT_NODE(OCT_EMPTY, d->cls);
+    long leaf = pool_leaf(w->b, p, kid, d);
+    return leaf < 0 ? -1 : (long)OCT_NODE(OCT_LEAF, leaf);
 }
 
-/* Build the subtree below a cell to split into pool p.  Returns the index of
- * its children's block in the pool, or -1 on failure. */
-static long build_subtree(worker_t *w, pool_t *p, cell_t cell, const tape_t *t,
+/* ---- phase 2: a subtree, level by level ------------------------------------------- */
+
+/* A cell of a level, to split: its tape is an id in the level's tape set, or
+ * WAVE_OWN_TAPE for the subtree's own tape; slot is its node word in the
+ * pool (WAVE_NO_SLOT for the subtree's root, whose block is returned). */
+typedef struct wave_cell {
+    cell_t cell;
+    uint32_t tape;
+    uint32_t slot;
+} wave_cell_t;
+
+#define WAVE_OWN_TAPE UINT32_MAX
+#define WAVE_NO_SLOT UINT32_MAX
+
+/* Parents per chain_classify call */
+#define WAVE_PARENTS (CHAIN_BATCH / 8)
+
+struct wave {
+    wave_cell_t *cur, *next;
+    size_t ncur, nnext, cap_cur, cap_next;
+    uint32_t *order;      /* cur sorted by tape (stable) */
+    size_t cap_order;
+    uint32_t *first;      /* per tape id + 1: start of its run in order */
+    size_t cap_first;
+    tape_set_t sets[2];   /* cur's tapes, next's tapes */
+    size_t set_bytes;     /* accounted so far */
+    cell_t kids[CHAIN_BATCH];
+    iv_box_t boxes[CHAIN_BATCH];
+    decision_t dec[CHAIN_BATCH];
+    long base[WAVE_PARENTS];
+};
+typedef struct wave wave_t;
+
+static wave_t *wave_new(void) { return calloc(1, sizeof(wave_t)); }
+
+static void wave_free(build_t *b, wave_t *v)
+{
+    build_account(b, -(ptrdiff_t)((v->cap_cur + v->cap_next) * sizeof *v->cur +
+                                  v->cap_order * sizeof *v->order +
+                                  v->cap_first * sizeof *v->first + v->set_bytes));
+    free(v->cur), free(v->next), free(v->order), free(v->first);
+    tape_set_free(&v->sets[0]);
+    tape_set_free(&v->sets[1]);
+    free(v);
+}
+
+static int wave_push(build_t *b, wave_t *v, cell_t c, uint32_t tape, size_t slot)
+{
+    wave_cell_t *q = build_grow(b, v->next, &v->cap_next, v->nnext + 1, sizeof *q);
+    if (!q)
+        return -1;
+    v->next = q;
+    q[v->nnext++] = (wave_cell_t){c, tape, (uint32_t)slot};
+    return 0;
+}
+
+/* Order the level's cells by tape id (a counting sort, stable: the order
+ * within a tape is the order of the level). */
+static int wave_order(build_t *b, wave_t *v, size_t ntapes)
+{
+    uint32_t *o = build_grow(b, v->order, &v->cap_order, v->ncur, sizeof *o);
+    if (!o)
+        return -1;
+    v->order = o;
+    uint32_t *f = build_grow(b, v->first, &v->cap_first, ntapes + 2, sizeof *f);
+    if (!f)
+        return -1;
+    v->first = f;
+    memset(f, 0, (ntapes + 2) * sizeof *f);
+    /* WAVE_OWN_TAPE sorts last, as id ntapes */
+#define WAVE_KEY(t) ((t) == WAVE_OWN_TAPE ? ntapes : (size_t)(t))
+    for (size_t i = 0; i < v->ncur; i++)
+        f[WAVE_KEY(v->cur[i].tape) + 1]++;
+    for (size_t k = 1; k < ntapes + 2; k++)
+        f[k] += f[k - 1];
+    uint32_t *pos = f; /* f[key] advances to the run's end; rebuilt below */
+    for (size_t i = 0; i < v->ncur; i++)
+        o[pos[WAVE_KEY(v->cur[i].tape)]++] = (uint32_t)i;
+    /* now f[key] is the end of run key: shift back to starts */
+    for (size_t k = ntapes + 1; k > 0; k--)
+        f[k] = f[k - 1];
+    f[0] = 0;
+#undef WAVE_KEY
+    return 0;
+}
+
+/* Split the cells order[from..to) of the current level (all with tape t, id
+ * tid) in batches: their children are classified together, settled ones
+ * stored, the others pushed to the next level with their pruned tapes. */
+static int wave_split_run(worker_t *w, wave_t *v, pool_t *p, const tape_t *t, int single_use,
+                          uint32_t tid, size_t from, size_t to, long *root_base)
+{
+    build_t *b = w->b;
+    tape_set_t *nset = &v->sets[1];
+    long inherited = -1; /* t's id in the next set, once a child keeps it */
+    for (size_t i0 = from; i0 < to; i0 += WAVE_PARENTS) {
+        size_t np = to - i0 < WAVE_PARENTS ? to - i0 : WAVE_PARENTS;
+        for (size_t j = 0; j < np; j++) {
+            const wave_cell_t *e = &v->cur[v->order[i0 + j]];
+            count_split(w, e->cell, t);
+            v->base[j] = pool_block(b, p);
+            if (v->base[j] < 0)
+                return -1;
+            if (e->slot == WAVE_NO_SLOT)
+                *root_base = v->base[j];
+            else
+                p->nodes[e->slot] = OCT_NODE(OCT_INTERIOR, (size_t)v->base[j]);
+            for (int k = 0; k < 8; k++)
+                v->kids[8 * j + (size_t)k] = child_cell(e->cell, k);
+            chain_children_boxes(b, e->cell, v->boxes + 8 * j);
+        }
+        int m = (int)(8 * np);
+        chain_classify(w, t, single_use, v->kids, v->boxes, m, v->dec);
+        for (int i = 0; i < m; i++) {
+            size_t slot = (size_t)v->base[i / 8] + (size_t)(i % 8);
+            const decision_t *d = &v->dec[i];
+            if (d->kind != SPLIT) {
+                long node = settled_node(w, p, v->kids[i], d);
+                if (node < 0)
+                    return -1;
+                p->nodes[slot] = (oct_node_t)node;
+                continue;
+            }
+            uint32_t kid_tape = WAVE_OWN_TAPE;
+            tape_clause_t *room = b->choices ? tape_set_reserve(nset, t->n) : NULL;
+            if (b->choices && !room)
+                goto oom;
+            tape_t pruned;
+            if (b->choices && chain_prune(w, t, i, room, &pruned)) {
+                long id = tape_set_commit(nset, pruned.n);
+                if (id < 0)
+                    goto oom;
+                kid_tape = (uint32_t)id;
+            } else if (tid != WAVE_OWN_TAPE) {
+                /* keeps t: a copy in the next level's set, made once per run */
+                if (inherited < 0) {
+                    memcpy(room, t->clauses, t->n * sizeof *t->clauses);
+                    inherited = tape_set_commit(nset, t->n);
+                    if (inherited < 0)
+                        goto oom;
+                }
+                kid_tape = (uint32_t)inherited;
+            }
+            p->nodes[slot] = 0; /* filled when its block is made */
+            if (wave_push(b, v, v->kids[i], kid_tape, slot))
+                return -1;
+        }
+    }
+    return 0;
+oom:
+    atomic_store(&b->failed, BUILD_OUT_OF_MEMORY);
+    return -1;
+}
+
+/* Build the subtree below a cell to split (tape t) into pool p.  Returns the
+ * index of its children's block in the pool, or -1 on failure. */
+static long build_subtree(worker_t *w, wave_t *v, pool_t *p, cell_t cell, const tape_t *t,
                           int single_use)
 {
-    if (atomic_load_explicit(&w->b->failed, memory_order_relaxed))
+    build_t *b = w->b;
+    long root_base = -1;
+    v->ncur = v->nnext = 0;
+    tape_set_clear(&v->sets[0]);
+    tape_set_clear(&v->sets[1]);
+    if (wave_push(b, v, cell, WAVE_OWN_TAPE, WAVE_NO_SLOT))
         return -1;
-    return split_cell(w, p, cell, t, single_use, descend, NULL);
+    while (v->nnext > 0) {
+        if (atomic_load_explicit(&b->failed, memory_order_relaxed))
+            return -1;
+        /* the next level becomes the current one */
+        wave_cell_t *tc = v->cur;
+        size_t tcap = v->cap_cur;
+        v->cur = v->next, v->cap_cur = v->cap_next, v->ncur = v->nnext;
+        v->next = tc, v->cap_next = tcap, v->nnext = 0;
+        tape_set_t ts = v->sets[0];
+        v->sets[0] = v->sets[1];
+        v->sets[1] = ts;
+        tape_set_clear(&v->sets[1]);
+
+        size_t ntapes = v->sets[0].n_tapes;
+        if (wave_order(b, v, ntapes))
+            return -1;
+        for (size_t key = 0; key <= ntapes; key++) {
+            size_t from = v->first[key], to = v->first[key + 1];
+            if (from == to)
+                continue;
+            uint32_t tid = key == ntapes ? WAVE_OWN_TAPE : (uint32_t)key;
+            tape_t run_tape = tid == WAVE_OWN_TAPE ? *t : tape_set_get(&v->sets[0], tid);
+            int su = tid == WAVE_OWN_TAPE ? single_use
+                                          : single_use || v->sets[0].tapes[tid].single_use;
+            if (wave_split_run(w, v, p, &run_tape, su, tid, from, to, &root_base))
+                return -1;
+        }
+        size_t bytes = tape_set_bytes(&v->sets[0]) + tape_set_bytes(&v->sets[1]);
+        build_account(b, (ptrdiff_t)bytes - (ptrdiff_t)v->set_bytes);
+        v->set_bytes = bytes;
+    }
+    return root_base;
 }
 
 /* ---- phase 1: the top of the tree, breadth-first ----------------------------------------- */
 
-static int frontier_push(build_t *b, frontier_t **f, size_t *n, size_t *cap, cell_t c,
-                         const decision_t *d, size_t slot)
+typedef struct next_level {
+    frontier_t *f;
+    size_t n, cap;
+} next_level_t;
+
+/* Append cell c (tape t, copied unless it is the root tape) to the level. */
+static int frontier_push(build_t *b, next_level_t *l, cell_t c, const tape_t *t, int single_use,
+                         size_t slot)
 {
-    const tape_t *t = d->tape;
+    frontier_t **f = &l->f;
+    size_t *n = &l->n, *cap = &l->cap;
     frontier_t *q = build_grow(b, *f, cap, *n + 1, sizeof *q);
     if (!q)
         return -1;
@@ -142,8 +334,8 @@ static int frontier_push(build_t *b, frontier_t **f, size_t *n, size_t *cap, cel
     memset(e, 0, sizeof *e);
     e->cell = c;
     e->slot = slot;
-    e->single_use = d->single_use;
-    if (t == b->tape) {
+    e->single_use = single_use;
+    if (t->clauses == b->tape->clauses) {
         e->tape = *t;
     } else {
         e->tape.n = t->n;
@@ -171,19 +363,46 @@ static void frontier_free(build_t *b, frontier_t *f, size_t n)
     free(f);
 }
 
-typedef struct next_level {
-    frontier_t *f;
-    size_t n, cap;
-} next_level_t;
-
-static long defer(worker_t *w, pool_t *p, cell_t kid, const decision_t *d, size_t slot,
-                  void *ctx)
+/* Split cell e of the top phase into a new block of the top pool: its
+ * children are classified, the settled ones stored, the others pushed to
+ * next with their pruned tapes (room: t->n clauses).  The block's index, or
+ * -1. */
+static long top_split(worker_t *w, pool_t *top, const frontier_t *e, next_level_t *next,
+                      tape_clause_t *room)
 {
-    (void)p;
-    next_level_t *next = ctx;
-    if (frontier_push(w->b, &next->f, &next->n, &next->cap, kid, d, slot))
+    build_t *b = w->b;
+    cell_t kids[8];
+    decision_t dec[8];
+    iv_box_t boxes[8];
+    count_split(w, e->cell, &e->tape);
+    for (int k = 0; k < 8; k++)
+        kids[k] = child_cell(e->cell, k);
+    chain_children_boxes(b, e->cell, boxes);
+    chain_classify(w, &e->tape, e->single_use, kids, boxes, 8, dec);
+    long base = pool_block(b, top);
+    if (base < 0)
         return -1;
-    return 0; /* filled by the assembly */
+    for (int k = 0; k < 8; k++) {
+        size_t slot = (size_t)base + (size_t)k;
+        if (dec[k].kind != SPLIT) {
+            long node = settled_node(w, top, kids[k], &dec[k]);
+            if (node < 0)
+                return -1;
+            top->nodes[slot] = (oct_node_t)node;
+            continue;
+        }
+        tape_t pruned;
+        const tape_t *kt = &e->tape;
+        int su = e->single_use;
+        if (chain_prune(w, &e->tape, k, room, &pruned)) {
+            kt = &pruned;
+            su = su || tape_is_single_use(&pruned, w->scratch);
+        }
+        top->nodes[slot] = 0; /* filled by the assembly */
+        if (frontier_push(b, next, kids[k], kt, su, slot))
+            return -1;
+    }
+    return base;
 }
 
 /* Breadth-first from the root until FRONTIER_CELLS cells are to be split.
@@ -216,14 +435,19 @@ static int top_phase(worker_t *w, pool_t *top, frontier_t **front, size_t *nfron
         return 0;
     }
     next_level_t cur = {0};
-    if (frontier_push(b, &cur.f, &cur.n, &cur.cap, root, &dec, 0))
+    tape_clause_t *room = malloc(b->tape->n * sizeof *room);
+    if (!room) {
+        atomic_store(&b->failed, BUILD_OUT_OF_MEMORY);
+        return -1;
+    }
+    if (frontier_push(b, &cur, root, b->tape, b->single_use, 0))
         goto fail;
 
     while (cur.n > 0 && cur.n < FRONTIER_CELLS) {
         next_level_t next = {0};
         for (size_t i = 0; i < cur.n; i++) {
             frontier_t *e = &cur.f[i];
-            long base = split_cell(w, top, e->cell, &e->tape, e->single_use, defer, &next);
+            long base = top_split(w, top, e, &next, room);
             if (base < 0) {
                 frontier_free(b, next.f, next.n);
                 goto fail;
@@ -233,10 +457,12 @@ static int top_phase(worker_t *w, pool_t *top, frontier_t **front, size_t *nfron
         frontier_free(b, cur.f, cur.n);
         cur = next;
     }
+    free(room);
     *front = cur.f;
     *nfront = cur.n;
     return 0;
 fail:
+    free(room);
     frontier_free(b, cur.f, cur.n);
     return -1;
 }
@@ -322,7 +548,8 @@ int oct_build(const tape_t *t, const double box[6], const oct_params_t *params,
         for (size_t i = 0; i < nfront; i++) {
             worker_t *w = &workers[omp_get_thread_num()];
             frontier_t *e = &front[i];
-            e->base = build_subtree(w, &e->pool, e->cell, &e->tape, e->single_use);
+            e->base = build_subtree(w, w->wave, &e->pool, e->cell, &e->tape, e->single_use);
+            pool_shrink(w->b, &e->pool);
             size_t done = atomic_fetch_add(&finished, 1) + 1;
             if (params->progress && omp_get_thread_num() == 0)
                 params->progress(params->progress_user, (double)done / (double)nfront);
@@ -346,8 +573,15 @@ int oct_build(const tape_t *t, const double box[6], const oct_params_t *params,
         tree->depth = params->depth;
         tree->tests = params->tests;
         tree->refine = params->refine;
-        for (int i = 0; i < nthreads; i++)
+        double d2 = 0;
+        for (int i = 0; i < nthreads; i++) {
             add_stats(&tree->stats, &workers[i].st);
+            d2 = workers[i].max_diagonal2 > d2 ? workers[i].max_diagonal2 : d2;
+        }
+        /* the leaves without a slab: their largest diagonal (cell.c) */
+        double diagonal = d2 > 0 ? cell_diagonal_of_squared(d2) : 0.0;
+        if (diagonal > tree->stats.max_error_bound)
+            tree->stats.max_error_bound = diagonal;
         tree->stats.threads = nthreads;
         tree->stats.peak_bytes = atomic_load(&b.peak);
         tree->stats.time_s = omp_get_wtime() - t0;

@@ -2,7 +2,9 @@
  *
  *   pool.c   memory accounting, the node and leaf pools, assembly of the tree
  *   chain.c  the test chain: classify the children of a cell
- *   build.c  the two phases (breadth-first top, depth-first subtrees), oct_build
+ *   build.c  the two phases (the top on one thread, then subtrees level by
+ *            level on every thread), oct_build
+ *   tape_set.c  pruned tapes stored once (tape_set.h)
  */
 #ifndef IVOCT_OCTREE_BUILD_INTERNAL_H
 #define IVOCT_OCTREE_BUILD_INTERNAL_H
@@ -27,8 +29,8 @@ typedef struct decision {
     int kind;
     oct_class_t cls;    /* EMPTY */
     iv_t F;             /* enclosure of f over the cell */
-    const tape_t *tape; /* SPLIT: the tape for its children */
-    int single_use;     /* SPLIT: tape_is_single_use(tape) */
+    const tape_t *tape; /* the tape it was classified with (chain_prune prunes it) */
+    int single_use;     /* tape_is_single_use(tape) */
     oct_slab_t slab;    /* LEAF: its slab (n = 0 when none) */
 } decision_t;
 
@@ -58,24 +60,48 @@ typedef struct pool {
     size_t nl, capl, caps;
 } pool_t;
 
+/* Cells per chain_classify call: the children of CHAIN_BATCH / 8 cells that
+ * share a tape, evaluated together (the evaluators want many boxes per call;
+ * more than a few hundred buys nothing and costs cache). */
+#define CHAIN_BATCH 512
+
+/* Scratch of one chain_classify call, CHAIN_BATCH entries each.  The passes
+ * fill only the entries of the cells still open. */
+typedef struct chain_scratch {
+    iv_t *F;              /* by cell: f over its box */
+    int *open, *thin;     /* indices of the cells still open, and of the thin ones */
+    iv_grad_t *grad;      /* by cell: the gradient, where the gradient pass ran */
+    ilie_t *ilie;         /* by cell: the ILIE, where the ILIE pass ran */
+    iv_box_t *open_boxes; /* the open cells' boxes, packed, for one pass */
+    iv_grad_t *open_grad; /* packed results */
+    iv_t *open_F;
+    ilie_t *open_ilie;
+    double (*centre)[3];
+} chain_scratch_t;
+
+/* The last leaf diagonal computed (chain.c, leaf_diagonal_squared). */
+typedef struct diagonal_memo {
+    int valid;
+    unsigned zeros;
+    double width[3];
+    double d2;
+} diagonal_memo_t;
+
 /* One thread's evaluators and scratch. */
 typedef struct worker {
     build_t *b;
     tape_ws_t *ws;
     ilie_ws_t *ilie_ws;        /* only with the ilie test */
-    uint8_t *choices;          /* 8 * tape->n: the choices of one interval pass */
-    tape_clause_t *tape_store; /* (OCT_MAX_DEPTH + 1) * 8 pruned tapes */
-    tape_t tapes[OCT_MAX_DEPTH + 1][8];
-    uint32_t *scratch;
-    /* Scratch of one classify call (8 cells at most), here rather than on the
-     * stack: the passes fill only the entries of the cells still open, which
-     * gcc's -Wmaybe-uninitialized cannot follow through the `open` indices. */
-    iv_box_t open_boxes[8]; /* the open cells' boxes, packed, for one pass */
-    iv_grad_t grad[8];      /* by cell: the gradient, where the gradient pass ran */
+    uint8_t *choices;          /* CHAIN_BATCH * tape->n: the choices of one interval pass */
+    uint32_t *scratch;         /* 3 * tape->n */
+    chain_scratch_t chain;
+    struct wave *wave;         /* the levels of the subtree being built (build.c) */
+    double max_diagonal2;      /* the largest squared diagonal of a leaf without a slab */
+    diagonal_memo_t diagonal_memo;
     oct_stats_t st;
 } worker_t;
 
-/* A cell the top phase hands to the depth-first phase, and its subtree. */
+/* A cell the top phase hands to the subtree phase, and its subtree. */
 typedef struct frontier {
     cell_t cell;
     tape_t tape;    /* owned copy when pruned, else points at the root tape */
@@ -85,6 +111,14 @@ typedef struct frontier {
     pool_t pool;    /* the subtree, built in phase 2 */
     long base;      /* the index in pool of the cell's children block */
 } frontier_t;
+
+/* ---- cell.c ----
+ * oct_box_diagonal in two steps: the squared diagonal rounded up, then its
+ * root rounded up, which depends on that bound alone and grows with it.  So
+ * the largest diagonal of many boxes is the root of their largest square,
+ * one square root in all (the builder's max_error_bound). */
+double cell_diagonal_squared(const iv_box_t *b);
+double cell_diagonal_of_squared(double d2);
 
 /* ---- pool.c ---- */
 
@@ -100,21 +134,24 @@ long pool_block(build_t *b, pool_t *p);
 /* Append the leaf of cell c; its index in the pool, or -1. */
 long pool_leaf(build_t *b, pool_t *p, cell_t c, const decision_t *d);
 void pool_free(build_t *b, pool_t *p);
+/* Give back the pool's unused capacity (a finished subtree). */
+void pool_shrink(build_t *b, pool_t *p);
 /* The tree from the top pool and the subtrees' pools (each subtree's block
- * goes into node `slot` of the top pool), leaves in Morton order.  0, or -1
- * with the build failed. */
-int pool_assemble(build_t *b, const pool_t *top, const frontier_t *front, size_t nfront,
-                  oct_tree_t *tree);
+ * goes into node `slot` of the top pool), leaves in Morton order; the
+ * subtrees' pools are freed on the way.  0, or -1 with the build failed. */
+int pool_assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct_tree_t *tree);
 
 /* ---- chain.c ---- */
 
 /* The boxes of the 8 children of a cell. */
 void chain_children_boxes(const build_t *b, cell_t p, iv_box_t *boxes);
-/* Run the test chain on m cells (the 8 children of a cell, or the root alone)
- * with tape t; single_use: tape_is_single_use(t).  A cell to split gets in
- * out[k].tape the tape pruned to its box (held in the worker until the next
- * call at the same depth) or t itself. */
+/* Run the test chain on m <= CHAIN_BATCH cells (of one depth) with tape t;
+ * single_use: tape_is_single_use(t). */
 void chain_classify(worker_t *w, const tape_t *t, int single_use, const cell_t *cells,
                     const iv_box_t *boxes, int m, decision_t *out);
+/* After chain_classify with t: when the choices of cell k decided anything,
+ * write t pruned with them into clauses (room for t->n), out its tape, and
+ * return 1; else 0 (the cell keeps t). */
+int chain_prune(worker_t *w, const tape_t *t, int k, tape_clause_t *clauses, tape_t *out);
 
 #endif

@@ -1,5 +1,5 @@
 /* ivoct — cell addressing: bounds, Morton codes. */
-#include "octree.h"
+#include "build_internal.h"
 
 /* 2^-d, exact: scaling by it is exact, so i * 2^-d is the fraction itself */
 static const double POW2NEG[OCT_MAX_DEPTH + 1] = {
@@ -74,10 +74,17 @@ double oct_leaf_error_bound(const oct_tree_t *tree, uint32_t i)
     return oct_box_diagonal(&b);
 }
 
-double oct_box_diagonal(const iv_box_t *b)
+double cell_diagonal_squared(const iv_box_t *b)
 {
     iv_t d2 = iv_add(iv_add(iv_sqr(iv_sub(iv_point(b->x.hi), iv_point(b->x.lo))),
                             iv_sqr(iv_sub(iv_point(b->y.hi), iv_point(b->y.lo)))),
                      iv_sqr(iv_sub(iv_point(b->z.hi), iv_point(b->z.lo))));
-    return iv_sqrt(d2).hi;
+    return d2.hi;
+}
+
+double cell_diagonal_of_squared(double d2) { return iv_sqrt(iv_make(d2, d2)).hi; }
+
+double oct_box_diagonal(const iv_box_t *b)
+{
+    return cell_diagonal_of_squared(cell_diagonal_squared(b));
 }

@@ -1,12 +1,13 @@
 /* ivoct octree — the test chain.
  *
- * Every cell is classified together with its 7 siblings: one interval
- * evaluation of the parent's (pruned) tape over the 8 boxes, which also
- * records the min/max/abs choices decided over each box; then, for the
- * children it could not decide, the range tests the build runs (a gradient
- * pass and a pass at the centres for the Lipschitz test, an affine pass for
- * ILIE); then the refinement's stopping rule.  Children that are split get
- * the parent's tape pruned with their own choices. */
+ * Cells are classified in batches that share a tape (up to CHAIN_BATCH: the
+ * children of many cells of one level): one interval evaluation over all
+ * their boxes, which also records the min/max/abs choices decided over each
+ * box; then, for the cells it could not decide, the range tests the build
+ * runs (a gradient pass and a pass at the centres for the Lipschitz test, an
+ * affine pass for ILIE), each one pass over the cells still open; then the
+ * refinement's stopping rule.  A cell that is split gets the tape pruned
+ * with its own choices (chain_prune). */
 #include <math.h>
 #include <string.h>
 
@@ -55,14 +56,38 @@ static void make_slab(const ilie_t *l, const iv_box_t *box, int early, oct_slab_
     out->d_lo = lo, out->d_hi = hi, out->thickness = thick;
 }
 
+/* cell_diagonal_squared of a leaf's box.  It depends on the box only through
+ * the rounded widths fl(hi - lo) and on which ends are 0 (where iv_sub is
+ * exact), and the leaves of a batch mostly have equal widths: the last
+ * result is reused when they match (a tenth of an interval-only build went
+ * into those interval operations otherwise). */
+static double leaf_diagonal_squared(worker_t *w, const iv_box_t *b)
+{
+    const iv_t *s = &b->x;
+    double width[3];
+    unsigned zeros = 0;
+    for (int a = 0; a < 3; a++) {
+        width[a] = s[a].hi - s[a].lo;
+        zeros |= (unsigned)(s[a].lo == 0) << (2 * a) | (unsigned)(s[a].hi == 0) << (2 * a + 1);
+    }
+    diagonal_memo_t *m = &w->diagonal_memo;
+    if (m->valid && m->zeros == zeros && !memcmp(m->width, width, sizeof width))
+        return m->d2;
+    m->valid = 1;
+    m->zeros = zeros;
+    memcpy(m->width, width, sizeof width);
+    m->d2 = cell_diagonal_squared(b);
+    return m->d2;
+}
+
 /* The interval gradient over the open cells, into G[k]. */
 static void gradient_pass(worker_t *w, const tape_t *t, const iv_box_t *boxes,
                           const int *open, int nopen, iv_grad_t *G)
 {
     if (!nopen)
         return;
-    iv_box_t *ob = w->open_boxes;
-    iv_grad_t g[8];
+    iv_box_t *ob = w->chain.open_boxes;
+    iv_grad_t *g = w->chain.open_grad;
     for (int j = 0; j < nopen; j++)
         ob[j] = boxes[open[j]];
     tape_eval_grad(t, w->ws, (size_t)nopen, ob, g);
@@ -78,9 +103,9 @@ static int lipschitz_pass(worker_t *w, const tape_t *t, const iv_box_t *boxes, i
 {
     if (!nopen)
         return 0;
-    iv_box_t *cb = w->open_boxes;
-    iv_t Fc[8];
-    double c[8][3];
+    iv_box_t *cb = w->chain.open_boxes;
+    iv_t *Fc = w->chain.open_F;
+    double (*c)[3] = w->chain.centre;
     for (int j = 0; j < nopen; j++) {
         const iv_box_t *x = &boxes[open[j]];
         c[j][0] = iv_mid(x->x), c[j][1] = iv_mid(x->y), c[j][2] = iv_mid(x->z);
@@ -111,8 +136,8 @@ static int ilie_pass(worker_t *w, const tape_t *t, const iv_box_t *boxes, int *o
 {
     if (!nopen)
         return 0;
-    iv_box_t *ob = w->open_boxes;
-    ilie_t l[8];
+    iv_box_t *ob = w->chain.open_boxes;
+    ilie_t *l = w->chain.open_ilie;
     for (int j = 0; j < nopen; j++)
         ob[j] = boxes[open[j]];
     ilie_eval(t, w->ilie_ws, (size_t)nopen, ob, l);
@@ -139,13 +164,13 @@ void chain_classify(worker_t *w, const tape_t *t, int single_use, const cell_t *
 {
     build_t *b = w->b;
     oct_stats_t *st = &w->st;
-    iv_t F[8];
+    iv_t *F = w->chain.F;
     tape_eval_interval_choices(t, w->ws, (size_t)m, boxes, F, b->choices ? w->choices : NULL);
     st->tape_clauses_evaluated += (uint64_t)m * t->n;
     st->cells_visited += (uint64_t)m;
     st->cells_by_depth[cells[0].depth] += (uint64_t)m;
 
-    int open[8], nopen = 0;
+    int *open = w->chain.open, nopen = 0;
     for (int k = 0; k < m; k++) {
         out[k].F = F[k];
         out[k].tape = t;
@@ -173,8 +198,8 @@ void chain_classify(worker_t *w, const tape_t *t, int single_use, const cell_t *
     /* Indexed by cell k, filled for the cells still open when computed.  The
      * gradient serves the Lipschitz test and the normal cone of the
      * refinement, and is computed at most once per cell. */
-    iv_grad_t *G = w->grad;
-    ilie_t L[8];
+    iv_grad_t *G = w->chain.grad;
+    ilie_t *L = w->chain.ilie;
     int have_gradient = 0;
     if (lipschitz) {
         gradient_pass(w, t, boxes, open, nopen, G);
@@ -185,7 +210,7 @@ void chain_classify(worker_t *w, const tape_t *t, int single_use, const cell_t *
         nopen = ilie_pass(w, t, boxes, open, nopen, L, out);
     /* Only a cell whose slab is thin enough can stop early: the normal cone
      * is checked for those alone. */
-    int thin[8], nthin = 0;
+    int *thin = w->chain.thin, nthin = 0;
     if (refine && !have_gradient && cells[0].depth < b->max_depth) {
         for (int j = 0; j < nopen; j++)
             if (ilie_thickness(&L[open[j]]) < b->refine)
@@ -206,19 +231,31 @@ void chain_classify(worker_t *w, const tape_t *t, int single_use, const cell_t *
                 st->decided_max_depth++;
             st->leaves_by_depth[depth]++;
             make_slab(ilie ? &L[k] : NULL, &boxes[k], early, &out[k].slab);
-            double bound = out[k].slab.n[0] || out[k].slab.n[1] || out[k].slab.n[2]
-                               ? out[k].slab.thickness
-                               : oct_box_diagonal(&boxes[k]);
-            if (bound > st->max_error_bound)
-                st->max_error_bound = bound;
+            if (out[k].slab.n[0] || out[k].slab.n[1] || out[k].slab.n[2]) {
+                if (out[k].slab.thickness > st->max_error_bound)
+                    st->max_error_bound = out[k].slab.thickness;
+            } else {
+                double d2 = leaf_diagonal_squared(w, &boxes[k]);
+                if (d2 > w->max_diagonal2)
+                    w->max_diagonal2 = d2;
+            }
         } else {
             out[k].kind = SPLIT;
-            if (b->choices) {
-                tape_t *child = &w->tapes[depth][k];
-                tape_prune(t, w->choices + (size_t)k * t->n, w->scratch, child);
-                out[k].tape = child;
-                out[k].single_use = single_use || tape_is_single_use(child, w->scratch);
-            }
         }
     }
+}
+
+int chain_prune(worker_t *w, const tape_t *t, int k, tape_clause_t *clauses, tape_t *out)
+{
+    if (!w->b->choices)
+        return 0;
+    const uint8_t *c = w->choices + (size_t)k * t->n;
+    uint32_t i = 0;
+    while (i < t->n && c[i] == TAPE_CHOICE_BOTH)
+        i++;
+    if (i == t->n)
+        return 0;
+    out->clauses = clauses;
+    tape_prune(t, c, w->scratch, out);
+    return 1;
 }

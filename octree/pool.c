@@ -88,10 +88,58 @@ void pool_free(build_t *b, pool_t *p)
     memset(p, 0, sizeof *p);
 }
 
-/* Concatenate the top pool and the subtrees' pools, then renumber the leaves
- * in Morton order (the order of a depth-first walk with children 0..7). */
-int pool_assemble(build_t *b, const pool_t *top, const frontier_t *front, size_t nfront,
-                  oct_tree_t *tree)
+void pool_shrink(build_t *b, pool_t *p)
+{
+    /* realloc to a smaller size keeps the data; a failure leaves the block */
+    oct_node_t *n = p->n && p->n < p->cap ? realloc(p->nodes, p->n * sizeof *n) : NULL;
+    if (n) {
+        build_account(b, -(ptrdiff_t)((p->cap - p->n) * sizeof *n));
+        p->nodes = n, p->cap = p->n;
+    }
+    oct_leaf_t *l = p->nl && p->nl < p->capl ? realloc(p->leaves, p->nl * sizeof *l) : NULL;
+    if (l) {
+        build_account(b, -(ptrdiff_t)((p->capl - p->nl) * sizeof *l));
+        p->leaves = l, p->capl = p->nl;
+    }
+    oct_slab_t *sl = p->nl && p->nl < p->caps ? realloc(p->slabs, p->nl * sizeof *sl) : NULL;
+    if (sl) {
+        build_account(b, -(ptrdiff_t)((p->caps - p->nl) * sizeof *sl));
+        p->slabs = sl, p->caps = p->nl;
+    }
+}
+
+/* The leaves of the tree grow pool by pool (exactly, so that the assembly's
+ * peak stays near one copy of the tree); room for need leaves.  0 or -1. */
+static int grow_exact(build_t *b, oct_leaf_t **leaves, oct_slab_t **slabs, size_t *cap,
+                      size_t need)
+{
+    if (need <= *cap)
+        return 0;
+    oct_leaf_t *l = realloc(*leaves, need * sizeof *l);
+    if (!l)
+        return -1;
+    *leaves = l;
+    if (slabs) {
+        oct_slab_t *sl = realloc(*slabs, need * sizeof *sl);
+        if (!sl)
+            return -1;
+        *slabs = sl;
+    }
+    build_account(b, (ptrdiff_t)((need - *cap) * (sizeof *l + (slabs ? sizeof **slabs : 0))));
+    *cap = need;
+    return 0;
+}
+
+/* Concatenate the top pool and the subtrees' pools, then put the leaves in
+ * Morton order (the order of a depth-first walk with children 0..7).
+ *
+ * Memory: each subtree's nodes are freed once copied, and its leaves once
+ * the walk has passed them.  The frontier is in Morton order (one level of
+ * the breadth-first top phase, children in order), so the walk meets the
+ * subtrees' leaves one pool after the other: at the first leaf of pool i,
+ * every pool before it is done.  The tree's leaf array grows as the pools
+ * go, so the assembly holds little more than one copy of the tree. */
+int pool_assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct_tree_t *tree)
 {
     int with_slabs = build_keeps_slabs(b);
     size_t nn = top->n, nl = top->nl;
@@ -101,29 +149,24 @@ int pool_assemble(build_t *b, const pool_t *top, const frontier_t *front, size_t
         atomic_store(&b->failed, BUILD_OUT_OF_MEMORY);
         return -1;
     }
-    size_t ml = nl ? nl : 1;
     oct_node_t *nodes = malloc(nn * sizeof *nodes);
-    oct_leaf_t *staged = malloc(ml * sizeof *staged), *leaves = malloc(ml * sizeof *leaves);
-    oct_slab_t *staged_slabs = with_slabs ? malloc(ml * sizeof *staged_slabs) : NULL;
-    oct_slab_t *slabs = with_slabs ? malloc(ml * sizeof *slabs) : NULL;
-    if (!nodes || !staged || !leaves || (with_slabs && (!staged_slabs || !slabs))) {
-        free(nodes), free(staged), free(leaves), free(staged_slabs), free(slabs);
+    /* where each pool's leaves start in the staged numbering: top, then pools */
+    size_t *first_leaf = malloc((nfront + 2) * sizeof *first_leaf);
+    if (!nodes || !first_leaf) {
+        free(nodes), free(first_leaf);
         atomic_store(&b->failed, BUILD_OUT_OF_MEMORY);
         return -1;
     }
-    size_t leaf_bytes = sizeof *leaves + (with_slabs ? sizeof *slabs : 0);
-    build_account(b, (ptrdiff_t)(nn * sizeof *nodes + 2 * nl * leaf_bytes));
+    build_account(b, (ptrdiff_t)(nn * sizeof *nodes));
 
-    /* concatenate: the top pool, then each subtree's pool, indices shifted */
+    /* concatenate the nodes: the top pool, then each subtree's pool, indices
+     * shifted (leaf words in the staged numbering) */
     memcpy(nodes, top->nodes, top->n * sizeof *nodes);
-    if (top->nl) { /* memcpy from NULL is undefined even for 0 bytes */
-        memcpy(staged, top->leaves, top->nl * sizeof *staged);
-        if (with_slabs)
-            memcpy(staged_slabs, top->slabs, top->nl * sizeof *staged_slabs);
-    }
     size_t on = top->n, ol = top->nl;
+    first_leaf[0] = 0;
     for (size_t i = 0; i < nfront; i++) {
-        const pool_t *p = &front[i].pool;
+        pool_t *p = &front[i].pool;
+        first_leaf[i + 1] = ol;
         for (size_t j = 0; j < p->n; j++) {
             oct_node_t v = p->nodes[j];
             uint32_t kind = OCT_NODE_KIND(v);
@@ -133,37 +176,65 @@ int pool_assemble(build_t *b, const pool_t *top, const frontier_t *front, size_t
                 v = OCT_NODE(kind, OCT_NODE_VALUE(v) + ol);
             nodes[on + j] = v;
         }
-        if (p->nl) {
-            memcpy(staged + ol, p->leaves, p->nl * sizeof *staged);
-            if (with_slabs)
-                memcpy(staged_slabs + ol, p->slabs, p->nl * sizeof *staged_slabs);
-        }
         nodes[front[i].slot] = OCT_NODE(OCT_INTERIOR, (size_t)front[i].base + on);
         on += p->n, ol += p->nl;
+        build_account(b, -(ptrdiff_t)(p->cap * sizeof *p->nodes));
+        free(p->nodes);
+        p->nodes = NULL, p->n = p->cap = 0;
     }
+    first_leaf[nfront + 1] = ol;
 
     /* leaves in Morton order: depth-first, children in order (at most 7
      * pending siblings per level) */
+    oct_leaf_t *leaves = NULL;
+    oct_slab_t *slabs = NULL;
+    size_t capl = 0, done = 0; /* pools before `done` are freed */
+    int failed = grow_exact(b, &leaves, with_slabs ? &slabs : NULL, &capl, top->nl ? top->nl : 1);
     uint32_t stack[8 * (OCT_MAX_DEPTH + 2)];
     int sp = 0;
     uint32_t next_leaf = 0;
     stack[sp++] = 0;
-    while (sp > 0) {
+    while (sp > 0 && !failed) {
         uint32_t i = stack[--sp];
         oct_node_t v = nodes[i];
         if (OCT_NODE_KIND(v) == OCT_LEAF) {
-            leaves[next_leaf] = staged[OCT_NODE_VALUE(v)];
+            size_t staged = OCT_NODE_VALUE(v);
+            const oct_leaf_t *from;
+            const oct_slab_t *from_slab;
+            if (staged < top->nl) {
+                from = &top->leaves[staged];
+                from_slab = with_slabs ? &top->slabs[staged] : NULL;
+            } else {
+                /* the pool that holds it: at or after `done` (Morton order) */
+                size_t k = done;
+                while (first_leaf[k + 2] <= staged)
+                    k++;
+                for (; done < k; done++)
+                    pool_free(b, &front[done].pool);
+                const pool_t *p = &front[k].pool;
+                if (grow_exact(b, &leaves, with_slabs ? &slabs : NULL, &capl,
+                               next_leaf + p->nl + top->nl)) {
+                    failed = 1;
+                    break;
+                }
+                from = &p->leaves[staged - first_leaf[k + 1]];
+                from_slab = with_slabs ? &p->slabs[staged - first_leaf[k + 1]] : NULL;
+            }
+            leaves[next_leaf] = *from;
             if (with_slabs)
-                slabs[next_leaf] = staged_slabs[OCT_NODE_VALUE(v)];
+                slabs[next_leaf] = *from_slab;
             nodes[i] = OCT_NODE(OCT_LEAF, next_leaf++);
         } else if (OCT_NODE_KIND(v) == OCT_INTERIOR) {
             for (int k = 7; k >= 0; k--)
                 stack[sp++] = OCT_NODE_VALUE(v) + (uint32_t)k;
         }
     }
-    free(staged);
-    free(staged_slabs);
-    build_account(b, -(ptrdiff_t)(nl * leaf_bytes));
+    free(first_leaf);
+    if (failed) {
+        free(nodes), free(leaves), free(slabs);
+        atomic_store(&b->failed, BUILD_OUT_OF_MEMORY);
+        return -1;
+    }
     tree->nodes = nodes;
     tree->n_nodes = (uint32_t)nn;
     tree->leaves = leaves;

@@ -8,21 +8,14 @@
  * Pruning only shrinks a tape, and once every choice of a branch is decided
  * nothing more changes below; and the same tape comes out in many places (a
  * CSG leaf near the same few primitives, a shell's inside and outside), so
- * each distinct tape is stored once (a hash table of their clauses): few
+ * each distinct tape is stored once (tape_set.h): few
  * tapes, and the renderer's evaluations stay in cache. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "octree.h"
-
-/* A tape is stored as its first clause and length in one clause array, so
- * that the array can grow; pointers are made at the end. */
-typedef struct stored {
-    size_t first;
-    uint32_t n;
-    uint64_t hash;
-} stored_t;
+#include "tape_set.h"
 
 typedef struct walk {
     const oct_tree_t *tree;
@@ -31,103 +24,23 @@ typedef struct walk {
     uint32_t root_n;
     uint8_t *choices;   /* (OCT_MAX_DEPTH + 1) * 8 * root_n: one level per depth */
     uint32_t *scratch;  /* 3 * root_n */
-    tape_clause_t *clauses;
-    size_t n_clauses, cap_clauses;
-    stored_t *tapes;    /* tapes[0]: the root tape (not copied) */
-    size_t n_tapes, cap_tapes;
-    uint32_t *table;    /* open addressing: tape index + 1, 0 empty */
-    size_t table_cap;   /* a power of two, at least twice n_tapes */
-    uint32_t *of_leaf;  /* tape index of each leaf */
+    tape_set_t set;     /* the pruned tapes: id k + 1 is set entry k, id 0 the root tape */
+    uint32_t *of_leaf;  /* tape id of each leaf */
     int limit;          /* interior nodes at this depth are not descended into */
     double probe_sum, probe_count; /* their tapes' lengths, and the leaves' above */
     int failed;
 } walk_t;
 
-static int reserve(walk_t *w, void **p, size_t *cap, size_t need, size_t size)
-{
-    if (need <= *cap)
-        return 0;
-    size_t cap2 = *cap ? *cap : 64;
-    while (cap2 < need)
-        cap2 *= 2;
-    void *q = realloc(*p, cap2 * size);
-    if (!q) {
-        w->failed = 1;
-        return -1;
-    }
-    *p = q;
-    *cap = cap2;
-    return 0;
-}
-
-/* The tape with index id (valid until the clause array grows). */
+/* The tape with id id (valid until the set's clause array grows). */
 static tape_t tape_of(const walk_t *w, const tape_t *root, size_t id)
 {
-    if (id == 0)
-        return *root;
-    tape_t t = {w->clauses + w->tapes[id].first, w->tapes[id].n};
-    return t;
+    return id == 0 ? *root : tape_set_get(&w->set, id - 1);
 }
 
-/* FNV-1a over the clauses' fields (not their padding) */
-static uint64_t hash_clauses(const tape_clause_t *c, uint32_t n)
+/* Its length. */
+static uint32_t tape_length(const walk_t *w, const tape_t *root, size_t id)
 {
-    uint64_t h = 0xcbf29ce484222325ull;
-    for (uint32_t i = 0; i < n; i++) {
-        uint64_t w[4] = {(uint64_t)c[i].op << 32 | c[i].a, c[i].b, 0, 0};
-        memcpy(&w[2], &c[i].c.lo, sizeof(double));
-        memcpy(&w[3], &c[i].c.hi, sizeof(double));
-        for (int k = 0; k < 4; k++)
-            h = (h ^ w[k]) * 0x100000001b3ull;
-    }
-    return h;
-}
-
-static int same_clauses(const tape_clause_t *a, const tape_clause_t *b, uint32_t n)
-{
-    for (uint32_t i = 0; i < n; i++)
-        if (a[i].op != b[i].op || a[i].a != b[i].a || a[i].b != b[i].b ||
-            memcmp(&a[i].c.lo, &b[i].c.lo, sizeof(double)) ||
-            memcmp(&a[i].c.hi, &b[i].c.hi, sizeof(double)))
-            return 0;
-    return 1;
-}
-
-/* The index of the stored tape equal to the one just written at the end of
- * the clause array (n clauses), which is then dropped; or a new index for it.
- * The root tape (index 0) is not in the table: a pruned tape equal to it is
- * stored once like any other.  0 with w->failed set when out of memory. */
-static uint32_t intern(walk_t *w, uint32_t n)
-{
-    if (2 * (w->n_tapes + 1) > w->table_cap) {
-        size_t cap = w->table_cap ? 2 * w->table_cap : 1024;
-        uint32_t *t = calloc(cap, sizeof *t);
-        if (!t) {
-            w->failed = 1;
-            return 0;
-        }
-        for (size_t i = 1; i < w->n_tapes; i++) {
-            size_t j = w->tapes[i].hash & (cap - 1);
-            while (t[j])
-                j = (j + 1) & (cap - 1);
-            t[j] = (uint32_t)i + 1;
-        }
-        free(w->table);
-        w->table = t;
-        w->table_cap = cap;
-    }
-    const tape_clause_t *mine = w->clauses + w->n_clauses;
-    uint64_t h = hash_clauses(mine, n);
-    size_t j = h & (w->table_cap - 1);
-    for (; w->table[j]; j = (j + 1) & (w->table_cap - 1)) {
-        const stored_t *o = &w->tapes[w->table[j] - 1];
-        if (o->hash == h && o->n == n && same_clauses(w->clauses + o->first, mine, n))
-            return w->table[j] - 1;
-    }
-    w->tapes[w->n_tapes] = (stored_t){w->n_clauses, n, h};
-    w->n_clauses += n;
-    w->table[j] = (uint32_t)w->n_tapes + 1;
-    return (uint32_t)w->n_tapes++;
+    return id == 0 ? root->n : w->set.tapes[id - 1].n;
 }
 
 /* Every leaf of the subtree at node word `word` gets tape id. */
@@ -186,20 +99,23 @@ static void descend(walk_t *w, const tape_t *root, uint32_t first, int depth, ui
         for (uint32_t i = 0; i < t.n && !decided; i++)
             decided = c[i] != TAPE_CHOICE_BOTH;
         if (decided) {
-            if (reserve(w, (void **)&w->clauses, &w->cap_clauses, w->n_clauses + t.n,
-                        sizeof *w->clauses) ||
-                reserve(w, (void **)&w->tapes, &w->cap_tapes, w->n_tapes + 1, sizeof *w->tapes))
+            tape_t out = {tape_set_reserve(&w->set, t.n), 0};
+            if (!out.clauses) {
+                w->failed = 1;
                 return;
+            }
             t = tape_of(w, root, id); /* the clause array may have moved */
-            tape_t out = {w->clauses + w->n_clauses, 0};
             tape_prune(&t, c, w->scratch, &out);
-            kid = intern(w, out.n);
-            if (w->failed)
+            long got = tape_set_commit(&w->set, out.n);
+            if (got < 0) {
+                w->failed = 1;
                 return;
+            }
+            kid = (uint32_t)got + 1;
         }
         uint32_t cx = 2 * ix + (k & 1u), cy = 2 * iy + (k >> 1 & 1u), cz = 2 * iz + (k >> 2 & 1u);
         if (OCT_NODE_KIND(word) == OCT_LEAF || depth + 1 >= w->limit) {
-            w->probe_sum += kid ? w->tapes[kid].n : root->n;
+            w->probe_sum += tape_length(w, root, kid);
             w->probe_count++;
         }
         if (OCT_NODE_KIND(word) == OCT_LEAF)
@@ -213,10 +129,7 @@ static void descend(walk_t *w, const tape_t *root, uint32_t first, int depth, ui
 /* Back to no tape stored and every leaf with the root tape. */
 static void walk_reset(walk_t *w)
 {
-    w->n_tapes = 1;
-    w->n_clauses = 0;
-    if (w->table)
-        memset(w->table, 0, w->table_cap * sizeof *w->table);
+    tape_set_clear(&w->set);
     memset(w->of_leaf, 0, (w->tree->n_leaves ? w->tree->n_leaves : 1) * sizeof *w->of_leaf);
     w->probe_sum = w->probe_count = 0;
 }
@@ -240,11 +153,8 @@ int oct_leaf_tapes_build(const oct_tree_t *tree, const tape_t *tape, double marg
     w.choices = malloc((size_t)(OCT_MAX_DEPTH + 1) * 8 * tape->n);
     w.scratch = malloc(3 * (size_t)tape->n * sizeof *w.scratch);
     w.of_leaf = calloc(nl, sizeof *w.of_leaf);
-    w.failed = !lt || !w.ws || !w.choices || !w.scratch || !w.of_leaf ||
-               reserve(&w, (void **)&w.tapes, &w.cap_tapes, 1, sizeof *w.tapes);
+    w.failed = !lt || !w.ws || !w.choices || !w.scratch || !w.of_leaf;
     if (!w.failed) {
-        w.tapes[0] = (stored_t){0, tape->n, 0};
-        w.n_tapes = 1;
         /* the root: pruned over the grown tree box when that decides anything */
         oct_node_t root = tree->n_nodes ? tree->nodes[0] : OCT_NODE(OCT_EMPTY, 0);
         int walk = tape_has_choices(tape) && OCT_NODE_KIND(root) == OCT_INTERIOR;
@@ -263,32 +173,30 @@ int oct_leaf_tapes_build(const oct_tree_t *tree, const tape_t *tape, double marg
     }
     if (!w.failed) {
         lt->n_leaves = tree->n_leaves;
-        lt->n_tapes = w.n_tapes - 1;
-        lt->n_clauses = w.n_clauses;
-        lt->clauses = w.clauses;
-        lt->tapes = malloc(w.n_tapes * sizeof *lt->tapes);
+        lt->n_tapes = w.set.n_tapes;
+        lt->n_clauses = w.set.n_clauses;
+        lt->tapes = malloc((w.set.n_tapes + 1) * sizeof *lt->tapes);
         lt->of_leaf = malloc(nl * sizeof *lt->of_leaf);
         w.failed = !lt->tapes || !lt->of_leaf;
     }
     if (!w.failed) {
         lt->tapes[0] = *tape;
-        for (size_t i = 1; i < w.n_tapes; i++)
-            lt->tapes[i] = (tape_t){w.clauses + w.tapes[i].first, w.tapes[i].n};
+        for (size_t i = 0; i < w.set.n_tapes; i++)
+            lt->tapes[i + 1] = tape_set_get(&w.set, i);
         double sum = 0;
         for (uint32_t i = 0; i < tree->n_leaves; i++) {
             lt->of_leaf[i] = &lt->tapes[w.of_leaf[i]];
             sum += lt->of_leaf[i]->n;
         }
         lt->mean_clauses = tree->n_leaves ? sum / tree->n_leaves : tape->n;
-        w.clauses = NULL;
+        lt->clauses = w.set.clauses; /* the leaf tapes own the set's clauses */
+        w.set.clauses = NULL;
     }
     tape_ws_free(w.ws);
     free(w.choices);
     free(w.scratch);
     free(w.of_leaf);
-    free(w.tapes);
-    free(w.table);
-    free(w.clauses);
+    tape_set_free(&w.set);
     if (w.failed) {
         oct_leaf_tapes_free(lt);
         ivoct_error_set(err, "out of memory");

@@ -144,7 +144,7 @@ typedef struct ray_result {
     double t;           /* the hit; NaN on a miss */
     double t_lo, t_hi;  /* the final bracket (or accepted segment); NaN on a miss */
     uint64_t evals;     /* tape passes: evaluator calls (gradient, interval or double),
-                         * each of up to TAPE_LANES boxes or points */
+                         * each of up to RAY_BATCH (8) boxes or points */
     uint64_t nodes;     /* segments examined */
 } ray_result_t;
 
@@ -159,7 +159,7 @@ ray_hit_kind_t ray_find_root(const tape_t *tape, tape_ws_t *ws, ray_method_t m,
 /* The first root over n <= RAY_MAX_SEGMENTS segments [t0[k], t1[k]] of the same
  * ray, given front to back: the answer of ray_find_root on each in turn until
  * one hits (the tolerance scale is that of all of them), but in one search
- * whose first evaluations take two segments per evaluator call (TAPE_LANES
+ * whose first evaluations take two segments per evaluator call (one call
  * holds both) — the octree's leaves come in runs.  *which (may be NULL): the
  * first segment that holds the start of the hit's bracket, -1 on a miss; the
  * segments after it were not searched beyond their first evaluation. */

@@ -257,11 +257,11 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
             }
         }
 
-    /* normals of the tile's hits, TAPE_LANES per evaluator call */
-    for (int b = 0; b < nh; b += TAPE_LANES) {
-        int m = nh - b < TAPE_LANES ? nh - b : TAPE_LANES;
-        iv_box_t box[TAPE_LANES];
-        iv_grad_t g[TAPE_LANES];
+    /* normals of the tile's hits, TAPE_BATCH per evaluator call */
+    for (int b = 0; b < nh; b += TAPE_BATCH) {
+        int m = nh - b < TAPE_BATCH ? nh - b : TAPE_BATCH;
+        iv_box_t box[TAPE_BATCH];
+        iv_grad_t g[TAPE_BATCH];
         for (int k = 0; k < m; k++) {
             const double *p = img->point + 3 * hits[b + k];
             box[k].x = iv_point(p[0]);

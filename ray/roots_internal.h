@@ -31,7 +31,7 @@
  * once per call and its cost per lane stays, so a bisection evaluates both
  * halves and both of their midpoints in one call, a Newton step its new
  * segment, midpoint and ends, a refinement step up to 8 candidate points.
- * The evaluator processes any count in chunks of TAPE_LANES. */
+ * The evaluator processes any count in one call. */
 #define RAY_BATCH 8
 
 /* ---- methods.c: what distinguishes the methods ----------------------------------

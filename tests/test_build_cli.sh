@@ -100,7 +100,8 @@ errors = []
 with open(stats) as f:
     st = json.load(f)
 for key in ["depth", "leaves", "leaves_by_depth", "cells_visited", "decided_by",
-            "max_error_bound", "tape_clauses_evaluated", "time_s", "peak_bytes", "threads"]:
+            "max_error_bound", "tape_clauses_evaluated", "time_s", "peak_bytes", "threads",
+            "simd"]:
     if key not in st:
         errors.append("stats: no key %r" % key)
 for key in ["interval", "lipschitz", "ilie", "refine"]:

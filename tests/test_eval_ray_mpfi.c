@@ -4,7 +4,7 @@
  * Random rays o + t·d (origins in and around the box, directions with now
  * and then an exact zero component) and random parameter intervals T (widths
  * from the whole box down to 2^-40 of it, one in 8 a point), evaluated in
- * batches of 13 lanes (not a multiple of TAPE_LANES: padding).  At random t
+ * batches of 13 lanes (not a multiple of 8: padding).  At random t
  * of T (the ends included):
  *  - a segment lane: the oracle at the exact point o + t·d (MPFI) and at the
  *    rounded point p~(t) must lie in g, ∇f·d in dg, and Σ|∂_i f|·rho_i in

@@ -30,7 +30,7 @@
 #include "support/mpfi_tape.h"
 #include "support/testutil.h"
 
-#define BATCH 13 /* not a multiple of TAPE_LANES: exercises short chunks */
+#define BATCH 13 /* not a multiple of 8: the evaluators pad the batch */
 
 typedef struct {
     long cells, checked, skipped, excluded, slab_checked, fallback;

@@ -41,7 +41,7 @@
 #include "support/mpfi_tape.h"
 #include "support/testutil.h"
 
-enum { BATCH = 13 }; /* not a multiple of TAPE_LANES: exercises short chunks */
+enum { BATCH = 13 }; /* not a multiple of 8: the evaluators pad the batch */
 
 /* The MPFI oracle costs ~1-2 us per clause and point (it allocates its
  * slots), so each property has a budget of clause evaluations per scene (times

@@ -8,8 +8,8 @@
  * signed expressions, nested and shared min/max, a min or max with an operand
  * that is undefined on part of the box or has a pole): random boxes of many
  * sizes (the whole box down to 2^-30 of it, one in 16 a point), their choices
- * from batches of 13 boxes (not a multiple of TAPE_LANES: the last chunk is
- * short), each box's pruned tape, and at points of the box (corners, centre,
+ * from batches of 13 boxes (not a multiple of 8: the evaluators pad the
+ * batch), each box's pruned tape, and at points of the box (corners, centre,
  * faces, inside), with each end of the interval constants, in MPFI at 256 bits:
  *   1. where the original tape is defined the pruned one is too, and their two
  *      enclosures intersect (at a point they denote the same real);
@@ -38,7 +38,7 @@
 #include "support/mpfi_tape.h"
 #include "support/testutil.h"
 
-enum { BATCH = 13 }; /* not a multiple of TAPE_LANES: exercises short chunks */
+enum { BATCH = 13 }; /* not a multiple of 8: the evaluators pad the batch */
 
 /* MPFI clause evaluations per tape (times tu_scale()): the original and the
  * pruned tape at each point, with both ends of the constants.  The number of

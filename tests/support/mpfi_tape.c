@@ -318,7 +318,7 @@ int oracle_check_tape(const tape_t *t, const double box[6], long nbox, int point
     mpfi_init2(v, ORACLE_PREC);
     for (int k = 0; k < 3; k++)
         mpfi_init2(g[k], ORACLE_PREC);
-    enum { BATCH = 13 };
+    enum { BATCH = TAPE_BATCH + 13 }; /* two passes, the second short and padded */
     int fail = ws == NULL;
     for (long done = 0; done < nbox && !fail; done += BATCH) {
         iv_box_t boxes[BATCH];

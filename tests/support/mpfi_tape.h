@@ -36,7 +36,7 @@ int oracle_contained(mpfi_t v, iv_t d);
 
 /* The evaluators against the oracle: nbox random sub-boxes of box (sizes from
  * the whole box down to 2^-30 of it, one in 16 a point box), evaluated in
- * batches of 13 (not a multiple of TAPE_LANES, to exercise padding) with
+ * batches of TAPE_BATCH + 13 (two passes, the second short and padded) with
  * tape_eval_interval and tape_eval_grad; points_per_box points in each (ends
  * and interior), alternately with each end of the interval constants.
  * Returns 0 when every value and gradient is enclosed, else 1 with a message

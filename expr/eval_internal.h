@@ -1,0 +1,111 @@
+/* ivoct — the evaluators' pieces, internal to expr/.
+ *
+ *   eval.c            workspaces, the public evaluators (tape.h), the SIMD
+ *                     dispatch, the ray evaluator
+ *   kernels.h         the structure-of-arrays passes over a tape, written once
+ *                     in C11 and compiled once per SIMD target by
+ *   kernels_<target>.c  (portable, and on x86-64 avx2 and avx512: the same
+ *                     source with the target's -m flags, so every path does
+ *                     the same IEEE operations in the same order and gives the
+ *                     same bits; only the vector width differs)
+ *
+ * A slot of the structure-of-arrays passes is a set of arrays of
+ * TAPE_BATCH doubles, one entry per lane: the point pass has one (the value),
+ * the interval pass two (lo, hi), the gradient pass eight (lo, hi of the
+ * value and of each partial).  Lane counts given to a kernel are multiples
+ * of KERNEL_ALIGN (eval.c pads a short batch with copies of its first lane),
+ * so the lane loops have no scalar remainder. */
+#ifndef IVOCT_EVAL_INTERNAL_H
+#define IVOCT_EVAL_INTERNAL_H
+
+#include <stddef.h>
+
+#include "tape.h"
+
+#define KERNEL_ALIGN 8
+
+/* The gradient pass's arrays within a slot, in this order. */
+enum { G_VLO, G_VHI, G_XLO, G_XHI, G_YLO, G_YHI, G_ZLO, G_ZHI, G_ARRAYS };
+
+/* Inputs of a pass: for boxes x.lo, x.hi, y.lo, y.hi, z.lo, z.hi; for
+ * points x, y, z in the first three. */
+typedef const double *const kernel_in_t[6];
+
+typedef struct tape_kernels {
+    const char *name; /* the IVOCT_SIMD name */
+    /* values into S (slot i at S + i * TAPE_BATCH) */
+    void (*point)(const tape_t *t, double *S, size_t nl, kernel_in_t in);
+    /* enclosures into LO, HI (slot i at + i * TAPE_BATCH) */
+    void (*interval)(const tape_t *t, double *LO, double *HI, size_t nl, kernel_in_t in);
+    /* enclosures and gradients into G (array c of slot i at
+     * G + (i * G_ARRAYS + c) * TAPE_BATCH); deps[i]: the variables clause i
+     * depends on (bit 0 x, 1 y, 2 z), from tape_deps */
+    void (*grad)(const tape_t *t, const uint8_t *deps, double *G, size_t nl, kernel_in_t in);
+} tape_kernels_t;
+
+/* deps[i] for every clause of t: bit 0, 1, 2 when clause i depends on x, y,
+ * z (so its partial in that variable may be non-zero). */
+void tape_deps(const tape_t *t, uint8_t *deps);
+
+extern const tape_kernels_t tape_kernels_portable;
+#ifdef IVOCT_SIMD_X86
+extern const tape_kernels_t tape_kernels_avx2;
+extern const tape_kernels_t tape_kernels_avx512;
+#endif
+
+/* ---- forward-mode rules, shared by the gradient kernels and the ray
+ * evaluator -------------------------------------------------------------------
+ * Each slot carries f and its partials as intervals.  Where an operation is
+ * not differentiable (abs at 0, min/max at a tie) the partials enclose every
+ * one-sided derivative, which is what the Lipschitz test needs. */
+
+static inline iv_t fm_mul_add(iv_t p, iv_t q, iv_t r, iv_t s)
+{
+    return iv_add(iv_mul(p, q), iv_mul(r, s));
+}
+
+/* an undefined branch makes the result undefined */
+static inline iv_t fm_hull_or_empty(iv_t a, iv_t b)
+{
+    int empty = iv_is_empty(a) | iv_is_empty(b);
+    iv_t r = {a.lo < b.lo ? a.lo : b.lo, a.hi > b.hi ? a.hi : b.hi};
+    r.lo = empty ? NAN : r.lo;
+    r.hi = empty ? NAN : r.hi;
+    return r;
+}
+
+/* min/max: -1 when a is certainly selected, 1 when b is, 0 when undecided */
+static inline int fm_pick_min(iv_t a, iv_t b) { return a.hi <= b.lo ? -1 : b.hi <= a.lo ? 1 : 0; }
+static inline int fm_pick_max(iv_t a, iv_t b) { return a.lo >= b.hi ? -1 : b.lo >= a.hi ? 1 : 0; }
+
+/* A unary op's value over a and an enclosure of its derivative there (over
+ * the points where it is differentiable; see interval.h), for the chain
+ * rule. */
+static inline void fm_unary(tape_op_t op, iv_t c, iv_t a, iv_t *v, iv_t *d)
+{
+    switch (op) {
+    case TAPE_SQR:
+        *v = iv_sqr(a), *d = iv_add(a, a);
+        break;
+    case TAPE_POWI: {
+        int n = (int)c.lo;
+        *v = iv_powi(a, n), *d = iv_mul(iv_point((double)n), iv_powi(a, n - 1));
+        break;
+    }
+    case TAPE_POWR:
+        /* d/dx x^r = r x^r / x, valid for x > 0, where x^r is defined */
+        *v = iv_powr(a, c.lo), *d = iv_mul(iv_point(c.lo), iv_div(*v, a));
+        break;
+    case TAPE_SQRT: *v = iv_sqrt(a), *d = iv_dsqrt(a); break;
+    case TAPE_EXP: *v = iv_exp(a), *d = *v; break;
+    case TAPE_LOG: *v = iv_log(a), *d = iv_dlog(a); break;
+    case TAPE_SIN: *v = iv_sin(a), *d = iv_cos(a); break;
+    case TAPE_COS: *v = iv_cos(a), *d = iv_neg(iv_sin(a)); break;
+    case TAPE_TAN: *v = iv_tan(a), *d = iv_dtan(a); break;
+    case TAPE_ATAN: *v = iv_atan(a), *d = iv_datan(a); break;
+    case TAPE_ABS: *v = iv_abs(a), *d = iv_dabs(a); break;
+    default: *v = *d = iv_entire(); break;
+    }
+}
+
+#endif

@@ -1,0 +1,549 @@
+/* ivoct — the structure-of-arrays passes over a tape (see eval_internal.h).
+ *
+ * Included once by each kernels_<target>.c, which defines KERNEL_TARGET and is
+ * compiled with that target's flags; everything here is static except the
+ * table tape_kernels_<target>.  Each clause runs one loop over the lanes; the
+ * cheap interval operations (add, sub, mul, sqr, min, max, abs, integer
+ * powers) are inline and branch-free, so the compiler vectorises those loops
+ * at the target's width; the others call the scalar iv_ functions lane by
+ * lane.  Every lane computes exactly what the scalar iv_ operation computes
+ * (same operations, same order): the vector width changes nothing but speed. */
+#include <string.h>
+
+#include "eval_internal.h"
+
+#ifndef KERNEL_TARGET
+#error "kernels.h is included by kernels_<target>.c, which defines KERNEL_TARGET"
+#endif
+
+#define KCAT_(a, b) a##_##b
+#define KCAT(a, b) KCAT_(a, b)
+#define K(name) KCAT(name, KERNEL_TARGET)
+#define KSTR_(a) #a
+#define KSTR(a) KSTR_(a)
+
+#define B TAPE_BATCH
+
+/* ---- interval lanes ------------------------------------------------------------ */
+
+/* iv_abs, branch-free (the same bounds). */
+static inline iv_t k_abs(iv_t a)
+{
+    int pos = a.lo >= 0, neg = a.hi <= 0; /* branch-free: no && or || below */
+    double top = -a.lo > a.hi ? -a.lo : a.hi;
+    iv_t r = {pos ? a.lo : neg ? -a.hi : 0.0, pos ? a.hi : neg ? -a.lo : top};
+    int empty = iv_is_empty(a);
+    r.lo = empty ? NAN : r.lo;
+    r.hi = empty ? NAN : r.hi;
+    return r;
+}
+
+/* iv_min and iv_max, branch-free (the same bounds). */
+static inline iv_t k_min(iv_t a, iv_t b)
+{
+    int empty = iv_is_empty(a) | iv_is_empty(b);
+    iv_t r = {a.lo < b.lo ? a.lo : b.lo, a.hi < b.hi ? a.hi : b.hi};
+    r.lo = empty ? NAN : r.lo;
+    r.hi = empty ? NAN : r.hi;
+    return r;
+}
+
+static inline iv_t k_max(iv_t a, iv_t b)
+{
+    int empty = iv_is_empty(a) | iv_is_empty(b);
+    iv_t r = {a.lo > b.lo ? a.lo : b.lo, a.hi > b.hi ? a.hi : b.hi};
+    r.lo = empty ? NAN : r.lo;
+    r.hi = empty ? NAN : r.hi;
+    return r;
+}
+
+static inline double k_dn0(double x) /* iv_down of a value known to be >= 0 */
+{
+    double y = iv_down(x);
+    return y < 0.0 ? 0.0 : y;
+}
+
+/* m^e (m >= 0, e >= 1) rounded down and up for every lane: the binary
+ * exponentiation of interval.c (pow_dn, pow_up) with the lanes innermost,
+ * the same products in the same order, so the same bounds. */
+static void k_pow_bounds(const double *restrict m, size_t nl, unsigned e, double *restrict dn,
+                         double *restrict up)
+{
+    double bd[B], bu[B];
+    for (size_t k = 0; k < nl; k++)
+        dn[k] = up[k] = 1.0, bd[k] = bu[k] = m[k];
+    for (;;) {
+        if (e & 1u)
+            for (size_t k = 0; k < nl; k++)
+                dn[k] = k_dn0(dn[k] * bd[k]), up[k] = iv_up(up[k] * bu[k]);
+        e >>= 1;
+        if (e == 0)
+            break;
+        for (size_t k = 0; k < nl; k++)
+            bd[k] = k_dn0(bd[k] * bd[k]), bu[k] = iv_up(bu[k] * bu[k]);
+    }
+    for (size_t k = 0; k < nl; k++) {
+        dn[k] = m[k] == 0.0 ? 0.0 : dn[k];
+        up[k] = m[k] == 0.0 ? 0.0 : up[k];
+    }
+}
+
+/* iv_powi(a, e) for e >= 3, every lane: odd powers are increasing, even ones
+ * monotone in |x| (interval.c, powi_pos). */
+static void k_powi_pos(const double *restrict al, const double *restrict ah, size_t nl,
+                       unsigned e, double *restrict ol, double *restrict oh)
+{
+    /* zeroed only to spare gcc a false -Wmaybe-uninitialized (nl <= B lanes
+     * are written before they are read) */
+    double ml[B] = {0}, mh[B] = {0}, dl[B], ul[B], dh[B], uh[B];
+    if (e & 1u) {
+        for (size_t k = 0; k < nl; k++)
+            ml[k] = fabs(al[k]), mh[k] = fabs(ah[k]);
+        k_pow_bounds(ml, nl, e, dl, ul);
+        k_pow_bounds(mh, nl, e, dh, uh);
+        for (size_t k = 0; k < nl; k++) {
+            int empty = (al[k] != al[k]) | (ah[k] != ah[k]);
+            double lo = al[k] >= 0.0 ? dl[k] : -ul[k];
+            double hi = ah[k] >= 0.0 ? uh[k] : -dh[k];
+            ol[k] = empty ? NAN : lo;
+            oh[k] = empty ? NAN : hi;
+        }
+        return;
+    }
+    for (size_t k = 0; k < nl; k++) {
+        int pos = al[k] >= 0.0, neg = ah[k] <= 0.0;
+        double top = -al[k] > ah[k] ? -al[k] : ah[k];
+        ml[k] = pos ? al[k] : neg ? -ah[k] : 0.0;
+        mh[k] = pos ? ah[k] : neg ? -al[k] : top;
+    }
+    k_pow_bounds(ml, nl, e, dl, ul);
+    k_pow_bounds(mh, nl, e, dh, uh);
+    for (size_t k = 0; k < nl; k++) {
+        int empty = (al[k] != al[k]) | (ah[k] != ah[k]);
+        ol[k] = empty ? NAN : dl[k];
+        oh[k] = empty ? NAN : uh[k];
+    }
+}
+
+#define IV(lo, hi, k) iv_make((lo)[k], (hi)[k])
+#define LANES_UNARY(fn)                                                                      \
+    for (size_t k = 0; k < nl; k++) {                                                        \
+        iv_t r_ = fn(IV(al, ah, k));                                                         \
+        ol[k] = r_.lo, oh[k] = r_.hi;                                                        \
+    }
+#define LANES_BINARY(fn)                                                                     \
+    for (size_t k = 0; k < nl; k++) {                                                        \
+        iv_t r_ = fn(IV(al, ah, k), IV(bl, bh, k));                                          \
+        ol[k] = r_.lo, oh[k] = r_.hi;                                                        \
+    }
+
+static void K(interval)(const tape_t *t, double *LO, double *HI, size_t nl, kernel_in_t in)
+{
+    for (uint32_t i = 0; i < t->n; i++) {
+        const tape_clause_t *c = &t->clauses[i];
+        double *restrict ol = LO + (size_t)i * B, *restrict oh = HI + (size_t)i * B;
+        const double *al = LO + (size_t)c->a * B, *ah = HI + (size_t)c->a * B;
+        const double *bl = LO + (size_t)c->b * B, *bh = HI + (size_t)c->b * B;
+        switch ((tape_op_t)c->op) {
+        case TAPE_CONST:
+            for (size_t k = 0; k < nl; k++) ol[k] = c->c.lo, oh[k] = c->c.hi;
+            break;
+        case TAPE_X: memcpy(ol, in[0], nl * sizeof *ol), memcpy(oh, in[1], nl * sizeof *oh); break;
+        case TAPE_Y: memcpy(ol, in[2], nl * sizeof *ol), memcpy(oh, in[3], nl * sizeof *oh); break;
+        case TAPE_Z: memcpy(ol, in[4], nl * sizeof *ol), memcpy(oh, in[5], nl * sizeof *oh); break;
+        case TAPE_NEG: for (size_t k = 0; k < nl; k++) ol[k] = -ah[k], oh[k] = -al[k]; break;
+        case TAPE_SQR: LANES_UNARY(iv_sqr); break;
+        case TAPE_POWI: {
+            int n = (int)c->c.lo;
+            if (n >= 3) {
+                k_powi_pos(al, ah, nl, (unsigned)n, ol, oh);
+            } else {
+                for (size_t k = 0; k < nl; k++) {
+                    iv_t r = iv_powi(IV(al, ah, k), n);
+                    ol[k] = r.lo, oh[k] = r.hi;
+                }
+            }
+            break;
+        }
+        case TAPE_POWR:
+            for (size_t k = 0; k < nl; k++) {
+                iv_t r = iv_powr(IV(al, ah, k), c->c.lo);
+                ol[k] = r.lo, oh[k] = r.hi;
+            }
+            break;
+        case TAPE_SQRT: LANES_UNARY(iv_sqrt); break;
+        case TAPE_EXP: LANES_UNARY(iv_exp); break;
+        case TAPE_LOG: LANES_UNARY(iv_log); break;
+        case TAPE_SIN: LANES_UNARY(iv_sin); break;
+        case TAPE_COS: LANES_UNARY(iv_cos); break;
+        case TAPE_TAN: LANES_UNARY(iv_tan); break;
+        case TAPE_ATAN: LANES_UNARY(iv_atan); break;
+        case TAPE_ABS: LANES_UNARY(k_abs); break;
+        case TAPE_ADD:
+            for (size_t k = 0; k < nl; k++)
+                ol[k] = iv_add_down(al[k], bl[k]), oh[k] = iv_add_up(ah[k], bh[k]);
+            break;
+        case TAPE_SUB:
+            for (size_t k = 0; k < nl; k++)
+                ol[k] = iv_add_down(al[k], -bh[k]), oh[k] = iv_add_up(ah[k], -bl[k]);
+            break;
+        case TAPE_MUL: LANES_BINARY(iv_mul); break;
+        case TAPE_DIV: LANES_BINARY(iv_div); break;
+        case TAPE_MIN: LANES_BINARY(k_min); break;
+        case TAPE_MAX: LANES_BINARY(k_max); break;
+        case TAPE_OP_COUNT: break;
+        }
+    }
+}
+
+/* ---- point lanes ------------------------------------------------------------------ */
+
+/* x^n by squaring, lanes innermost: much cheaper than pow() for the small
+ * exponents of polynomial surfaces, and as accurate for a non-rigorous
+ * evaluator */
+static void k_point_powi(double *restrict o, const double *restrict a, size_t nl, int n)
+{
+    unsigned m = n < 0 ? 0u - (unsigned)n : (unsigned)n;
+    double x[B];
+    for (size_t k = 0; k < nl; k++)
+        o[k] = 1.0, x[k] = a[k];
+    for (; m; m >>= 1) {
+        if (m & 1u)
+            for (size_t k = 0; k < nl; k++) o[k] *= x[k];
+        for (size_t k = 0; k < nl; k++) x[k] *= x[k];
+    }
+    if (n < 0)
+        for (size_t k = 0; k < nl; k++) o[k] = 1.0 / o[k];
+}
+
+static void K(point)(const tape_t *t, double *S, size_t nl, kernel_in_t in)
+{
+    for (uint32_t i = 0; i < t->n; i++) {
+        const tape_clause_t *c = &t->clauses[i];
+        double *restrict o = S + (size_t)i * B;
+        const double *a = S + (size_t)c->a * B, *b = S + (size_t)c->b * B;
+        switch ((tape_op_t)c->op) {
+        case TAPE_CONST: {
+            double v = iv_mid(c->c);
+            for (size_t k = 0; k < nl; k++) o[k] = v;
+            break;
+        }
+        case TAPE_X: memcpy(o, in[0], nl * sizeof *o); break;
+        case TAPE_Y: memcpy(o, in[1], nl * sizeof *o); break;
+        case TAPE_Z: memcpy(o, in[2], nl * sizeof *o); break;
+        case TAPE_NEG: for (size_t k = 0; k < nl; k++) o[k] = -a[k]; break;
+        case TAPE_SQR: for (size_t k = 0; k < nl; k++) o[k] = a[k] * a[k]; break;
+        case TAPE_POWI: k_point_powi(o, a, nl, (int)c->c.lo); break;
+        case TAPE_POWR: for (size_t k = 0; k < nl; k++) o[k] = pow(a[k], c->c.lo); break;
+        case TAPE_SQRT: for (size_t k = 0; k < nl; k++) o[k] = sqrt(a[k]); break;
+        case TAPE_EXP: for (size_t k = 0; k < nl; k++) o[k] = exp(a[k]); break;
+        case TAPE_LOG: for (size_t k = 0; k < nl; k++) o[k] = log(a[k]); break;
+        case TAPE_SIN: for (size_t k = 0; k < nl; k++) o[k] = sin(a[k]); break;
+        case TAPE_COS: for (size_t k = 0; k < nl; k++) o[k] = cos(a[k]); break;
+        case TAPE_TAN: for (size_t k = 0; k < nl; k++) o[k] = tan(a[k]); break;
+        case TAPE_ATAN: for (size_t k = 0; k < nl; k++) o[k] = atan(a[k]); break;
+        case TAPE_ABS: for (size_t k = 0; k < nl; k++) o[k] = fabs(a[k]); break;
+        case TAPE_ADD: for (size_t k = 0; k < nl; k++) o[k] = a[k] + b[k]; break;
+        case TAPE_SUB: for (size_t k = 0; k < nl; k++) o[k] = a[k] - b[k]; break;
+        case TAPE_MUL: for (size_t k = 0; k < nl; k++) o[k] = a[k] * b[k]; break;
+        case TAPE_DIV: for (size_t k = 0; k < nl; k++) o[k] = a[k] / b[k]; break;
+        /* NaN (undefined) propagates, unlike fmin/fmax */
+        case TAPE_MIN:
+            for (size_t k = 0; k < nl; k++) o[k] = a[k] != a[k] ? a[k] : (a[k] < b[k] ? a[k] : b[k]);
+            break;
+        case TAPE_MAX:
+            for (size_t k = 0; k < nl; k++) o[k] = a[k] != a[k] ? a[k] : (a[k] > b[k] ? a[k] : b[k]);
+            break;
+        case TAPE_OP_COUNT: break;
+        }
+    }
+}
+
+/* ---- interval + gradient lanes ------------------------------------------------------ */
+
+static inline iv_grad_t g_load(const double *g, size_t k)
+{
+    iv_grad_t r = {{g[G_VLO * B + k], g[G_VHI * B + k]},
+                   {g[G_XLO * B + k], g[G_XHI * B + k]},
+                   {g[G_YLO * B + k], g[G_YHI * B + k]},
+                   {g[G_ZLO * B + k], g[G_ZHI * B + k]}};
+    return r;
+}
+
+static inline void g_store(double *g, size_t k, iv_grad_t r)
+{
+    g[G_VLO * B + k] = r.v.lo, g[G_VHI * B + k] = r.v.hi;
+    g[G_XLO * B + k] = r.dx.lo, g[G_XHI * B + k] = r.dx.hi;
+    g[G_YLO * B + k] = r.dy.lo, g[G_YHI * B + k] = r.dy.hi;
+    g[G_ZLO * B + k] = r.dz.lo, g[G_ZHI * B + k] = r.dz.hi;
+}
+
+/* value v, gradient s * grad(a) */
+static inline iv_grad_t g_scale(iv_t v, iv_t s, iv_grad_t a)
+{
+    iv_grad_t r = {v, iv_mul(s, a.dx), iv_mul(s, a.dy), iv_mul(s, a.dz)};
+    return r;
+}
+
+
+
+
+
+/* (a/b)' = (a' - (a/b) b') / b */
+static inline iv_grad_t g_div(iv_grad_t a, iv_grad_t b)
+{
+    iv_t q = iv_div(a.v, b.v);
+    iv_grad_t r = {q, iv_div(iv_sub(a.dx, iv_mul(q, b.dx)), b.v),
+                   iv_div(iv_sub(a.dy, iv_mul(q, b.dy)), b.v),
+                   iv_div(iv_sub(a.dz, iv_mul(q, b.dz)), b.v)};
+    return r;
+}
+
+/* min/max: the branch that is certainly selected carries its gradient; else
+ * the hull of both gradients. */
+static inline iv_grad_t g_select(iv_t v, iv_grad_t a, iv_grad_t b, int pick)
+{
+    iv_grad_t h = {v, fm_hull_or_empty(a.dx, b.dx), fm_hull_or_empty(a.dy, b.dy),
+                   fm_hull_or_empty(a.dz, b.dz)};
+    iv_grad_t r = pick < 0 ? a : pick > 0 ? b : h;
+    r.v = v;
+    return r;
+}
+
+static inline iv_grad_t g_min(iv_grad_t a, iv_grad_t b)
+{
+    return g_select(k_min(a.v, b.v), a, b, fm_pick_min(a.v, b.v));
+}
+
+static inline iv_grad_t g_max(iv_grad_t a, iv_grad_t b)
+{
+    return g_select(k_max(a.v, b.v), a, b, fm_pick_max(a.v, b.v));
+}
+
+static inline iv_grad_t g_unary(tape_op_t op, iv_t c, iv_grad_t a)
+{
+    iv_t v, d;
+    fm_unary(op, c, a.v, &v, &d);
+    return g_scale(v, d, a);
+}
+
+/* The cheap ops of the gradient pass run one loop per component (value, dx,
+ * dy, dz) over that component's arrays, like the interval pass, so they
+ * vectorise; the others go lane by lane through the rules above. */
+#define GLO(p, c) ((p) + (size_t)(2 * (c)) * B)
+#define GHI(p, c) ((p) + (size_t)(2 * (c) + 1) * B)
+
+/* Which partials of a slot can be non-zero: bit c - 1 for component c (dx,
+ * dy, dz), from the variables the clause depends on (eval.c,
+ * tape_deps).  A partial outside the mask is exactly [0, 0]: its arrays are
+ * zeroed, and the rules skip the products and sums with it (a sum with an
+ * exact 0 and a product by [0, 0] are exact, up to the sign of a zero). */
+#define HAS(mask, c) ((mask) >> ((c) - 1) & 1u)
+
+static void g_zero(double *o, int c, size_t nl)
+{
+    memset(GLO(o, c), 0, nl * sizeof *o);
+    memset(GHI(o, c), 0, nl * sizeof *o);
+}
+
+static void g_copy(double *o, const double *a, int c, size_t nl, int negate)
+{
+    double *restrict ol = GLO(o, c), *restrict oh = GHI(o, c);
+    const double *al = GLO(a, c), *ah = GHI(a, c);
+    if (negate)
+        for (size_t k = 0; k < nl; k++) ol[k] = -ah[k], oh[k] = -al[k];
+    else
+        memcpy(ol, al, nl * sizeof *ol), memcpy(oh, ah, nl * sizeof *oh);
+}
+
+/* o = a + b, a - b (sign -1), componentwise; ma, mb the operands' masks */
+static void g_lanes_add(double *o, const double *a, const double *b, size_t nl, int sign,
+                        unsigned ma, unsigned mb)
+{
+    for (int c = 0; c < 4; c++) {
+        double *restrict ol = GLO(o, c), *restrict oh = GHI(o, c);
+        const double *al = GLO(a, c), *ah = GHI(a, c), *bl = GLO(b, c), *bh = GHI(b, c);
+        if (c > 0 && !(HAS(ma, c) && HAS(mb, c))) {
+            if (HAS(ma, c))
+                g_copy(o, a, c, nl, 0);
+            else if (HAS(mb, c))
+                g_copy(o, b, c, nl, sign < 0);
+            else
+                g_zero(o, c, nl);
+            continue;
+        }
+        if (sign > 0)
+            for (size_t k = 0; k < nl; k++)
+                ol[k] = iv_add_down(al[k], bl[k]), oh[k] = iv_add_up(ah[k], bh[k]);
+        else
+            for (size_t k = 0; k < nl; k++)
+                ol[k] = iv_add_down(al[k], -bh[k]), oh[k] = iv_add_up(ah[k], -bl[k]);
+    }
+}
+
+/* the partials of o = s * the partials of a (g_scale; o's value is set by
+ * the caller); ma: a's mask */
+static void g_lanes_scale(double *o, const double *sl, const double *sh, const double *a,
+                          size_t nl, unsigned ma)
+{
+    for (int c = 1; c < 4; c++) {
+        if (!HAS(ma, c)) {
+            g_zero(o, c, nl);
+            continue;
+        }
+        double *restrict ol = GLO(o, c), *restrict oh = GHI(o, c);
+        const double *al = GLO(a, c), *ah = GHI(a, c);
+        for (size_t k = 0; k < nl; k++) {
+            iv_t r = iv_mul(IV(sl, sh, k), IV(al, ah, k));
+            ol[k] = r.lo, oh[k] = r.hi;
+        }
+    }
+}
+
+/* the product rule (g_mul); a partial of one operand alone is a single
+ * product */
+static void g_lanes_mul(double *o, const double *a, const double *b, size_t nl, unsigned ma,
+                        unsigned mb)
+{
+    const double *avl = GLO(a, 0), *avh = GHI(a, 0), *bvl = GLO(b, 0), *bvh = GHI(b, 0);
+    for (int c = 1; c < 4; c++) {
+        double *restrict ol = GLO(o, c), *restrict oh = GHI(o, c);
+        const double *adl = GLO(a, c), *adh = GHI(a, c), *bdl = GLO(b, c), *bdh = GHI(b, c);
+        if (!(HAS(ma, c) && HAS(mb, c))) {
+            if (!HAS(ma, c) && !HAS(mb, c)) {
+                g_zero(o, c, nl);
+                continue;
+            }
+            /* a' b or a b' */
+            const double *pl = HAS(ma, c) ? adl : avl, *ph = HAS(ma, c) ? adh : avh;
+            const double *ql = HAS(ma, c) ? bvl : bdl, *qh = HAS(ma, c) ? bvh : bdh;
+            for (size_t k = 0; k < nl; k++) {
+                iv_t r = iv_mul(IV(pl, ph, k), IV(ql, qh, k));
+                ol[k] = r.lo, oh[k] = r.hi;
+            }
+            continue;
+        }
+        /* fm_mul_add in three loops: in one, gcc gives up on vectorising */
+        double pl[B], ph[B], ql[B], qh[B];
+        for (size_t k = 0; k < nl; k++) {
+            iv_t r = iv_mul(IV(adl, adh, k), IV(bvl, bvh, k));
+            pl[k] = r.lo, ph[k] = r.hi;
+        }
+        for (size_t k = 0; k < nl; k++) {
+            iv_t r = iv_mul(IV(avl, avh, k), IV(bdl, bdh, k));
+            ql[k] = r.lo, qh[k] = r.hi;
+        }
+        for (size_t k = 0; k < nl; k++)
+            ol[k] = iv_add_down(pl[k], ql[k]), oh[k] = iv_add_up(ph[k], qh[k]);
+    }
+    double *restrict ol = GLO(o, 0), *restrict oh = GHI(o, 0);
+    for (size_t k = 0; k < nl; k++) {
+        iv_t r = iv_mul(IV(avl, avh, k), IV(bvl, bvh, k));
+        ol[k] = r.lo, oh[k] = r.hi;
+    }
+}
+
+/* x^2 (g_sqr): the value, and 2x times the partials */
+static void g_lanes_sqr(double *o, const double *a, size_t nl, unsigned ma)
+{
+    const double *avl = GLO(a, 0), *avh = GHI(a, 0);
+    double sl[B], sh[B];
+    for (size_t k = 0; k < nl; k++) {
+        iv_t s2 = iv_add(IV(avl, avh, k), IV(avl, avh, k));
+        sl[k] = s2.lo, sh[k] = s2.hi;
+    }
+    g_lanes_scale(o, sl, sh, a, nl, ma);
+    double *restrict ol = GLO(o, 0), *restrict oh = GHI(o, 0);
+    for (size_t k = 0; k < nl; k++) {
+        iv_t r = iv_sqr(IV(avl, avh, k));
+        ol[k] = r.lo, oh[k] = r.hi;
+    }
+}
+
+/* x^n, n >= 3 (fm_unary's rule): the value, and n x^(n-1) times the partials */
+static void g_lanes_powi(double *o, const double *a, size_t nl, unsigned n, unsigned ma)
+{
+    const double *avl = GLO(a, 0), *avh = GHI(a, 0);
+    double sl[B], sh[B];
+    if (n - 1 == 2) {
+        for (size_t k = 0; k < nl; k++) {
+            iv_t r = iv_sqr(IV(avl, avh, k));
+            sl[k] = r.lo, sh[k] = r.hi;
+        }
+    } else {
+        k_powi_pos(avl, avh, nl, n - 1, sl, sh);
+    }
+    iv_t nn = iv_point((double)n);
+    for (size_t k = 0; k < nl; k++) {
+        iv_t r = iv_mul(nn, IV(sl, sh, k));
+        sl[k] = r.lo, sh[k] = r.hi;
+    }
+    g_lanes_scale(o, sl, sh, a, nl, ma);
+    k_powi_pos(avl, avh, nl, n, GLO(o, 0), GHI(o, 0));
+}
+
+#define G_LANES_BINARY(fn)                                                                   \
+    for (size_t k = 0; k < nl; k++)                                                          \
+        g_store(o, k, fn(g_load(a, k), g_load(b, k)));
+
+static void K(grad)(const tape_t *t, const uint8_t *deps, double *G, size_t nl, kernel_in_t in)
+{
+    for (uint32_t i = 0; i < t->n; i++) {
+        const tape_clause_t *c = &t->clauses[i];
+        double *o = G + (size_t)i * G_ARRAYS * B;
+        const double *a = G + (size_t)c->a * G_ARRAYS * B, *b = G + (size_t)c->b * G_ARRAYS * B;
+        tape_op_t op = (tape_op_t)c->op;
+        unsigned ma = deps[c->a], mb = tape_op_arity(op) == 2 ? deps[c->b] : 0;
+        switch (op) {
+        case TAPE_CONST:
+            for (size_t k = 0; k < nl; k++)
+                o[G_VLO * B + k] = c->c.lo, o[G_VHI * B + k] = c->c.hi;
+            for (int j = G_XLO; j < G_ARRAYS; j++)
+                memset(o + j * B, 0, nl * sizeof *o);
+            break;
+        case TAPE_X:
+        case TAPE_Y:
+        case TAPE_Z: {
+            int axis = op - TAPE_X;
+            memcpy(o + G_VLO * B, in[2 * axis], nl * sizeof *o);
+            memcpy(o + G_VHI * B, in[2 * axis + 1], nl * sizeof *o);
+            for (int j = G_XLO; j < G_ARRAYS; j++) {
+                double v = (j - G_XLO) / 2 == axis ? 1.0 : 0.0;
+                for (size_t k = 0; k < nl; k++)
+                    o[j * B + k] = v;
+            }
+            break;
+        }
+        case TAPE_NEG:
+            for (int j = 0; j < 4; j++) {
+                if (j > 0 && !HAS(ma, j))
+                    g_zero(o, j, nl);
+                else
+                    g_copy(o, a, j, nl, 1);
+            }
+            break;
+        case TAPE_SQR: g_lanes_sqr(o, a, nl, ma); break;
+        case TAPE_POWI:
+            if ((int)c->c.lo >= 3) {
+                g_lanes_powi(o, a, nl, (unsigned)(int)c->c.lo, ma);
+            } else {
+                for (size_t k = 0; k < nl; k++)
+                    g_store(o, k, g_unary(op, c->c, g_load(a, k)));
+            }
+            break;
+        case TAPE_ADD: g_lanes_add(o, a, b, nl, 1, ma, mb); break;
+        case TAPE_SUB: g_lanes_add(o, a, b, nl, -1, ma, mb); break;
+        case TAPE_MUL: g_lanes_mul(o, a, b, nl, ma, mb); break;
+        case TAPE_DIV: G_LANES_BINARY(g_div); break;
+        case TAPE_MIN: G_LANES_BINARY(g_min); break;
+        case TAPE_MAX: G_LANES_BINARY(g_max); break;
+        case TAPE_OP_COUNT: break;
+        default:
+            for (size_t k = 0; k < nl; k++)
+                g_store(o, k, g_unary(op, c->c, g_load(a, k)));
+            break;
+        }
+    }
+}
+
+const tape_kernels_t K(tape_kernels) = {KSTR(KERNEL_TARGET), K(point), K(interval), K(grad)};

@@ -1,0 +1,257 @@
+/* Every SIMD path of the evaluators gives the same bits (expr/tape.h, "SIMD
+ * paths"), so the same octree.
+ *
+ * For each path this machine runs (tape_simd_paths, tape_simd_available):
+ *   - the point, interval (with its choices), gradient and ray evaluators over
+ *     random boxes of every scene and of the expressions that exercise every
+ *     op (tests/support: tu_op_exprs), in batches of TAPE_BATCH + 37 (a full
+ *     pass, then a short padded one), must equal the portable path's results
+ *     byte for byte (NaN payloads included: the evaluators make the same NaN);
+ *   - the octree of every scene, with the scene's tests and with the whole
+ *     chain, built with 1 and 2 threads, must save to the same .ivo bytes.
+ * Enclosure itself is the MPFI tests' job; they run once per path (ctest
+ * names ending in @portable, @avx2, @avx512). */
+#define _POSIX_C_SOURCE 200809L
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "../octree/octree.h"
+#include "../scene/scene.h"
+#include "support/testutil.h"
+
+enum { NBOX = TAPE_BATCH + 37, MAX_PATHS = 8 };
+
+/* The paths this build has and this CPU runs, portable first. */
+static int available_paths(char names[MAX_PATHS][16])
+{
+    char list[128];
+    snprintf(list, sizeof list, "%s", tape_simd_paths());
+    int n = 0;
+    for (char *save = NULL, *p = strtok_r(list, " ", &save); p && n < MAX_PATHS;
+         p = strtok_r(NULL, " ", &save))
+        if (tape_simd_available(p))
+            snprintf(names[n++], sizeof names[0], "%s", p);
+    assert_true(n >= 1);
+    assert_string_equal(names[0], "portable");
+    return n;
+}
+
+static void use_path(const char *name)
+{
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    if (tape_simd_select(name, &err))
+        fail_msg("tape_simd_select(%s): %s", name, err.msg);
+    assert_string_equal(tape_simd_name(), name);
+}
+
+/* Everything the evaluators return for one tape over one set of boxes. */
+typedef struct results {
+    iv_t F[NBOX];
+    uint8_t *choices;
+    iv_grad_t G[NBOX];
+    double P[NBOX];
+    iv_t g[NBOX], dg[NBOX], g_only[NBOX];
+    double rnd[NBOX];
+} results_t;
+
+static void evaluate(const tape_t *t, const iv_box_t *boxes, const double (*pt)[3],
+                     const double o[3], const double d[3], const iv_t *T, results_t *r)
+{
+    tape_ws_t *ws = tape_ws_new(t->n);
+    assert_non_null(ws);
+    double x[NBOX], y[NBOX], z[NBOX];
+    for (int i = 0; i < NBOX; i++)
+        x[i] = pt[i][0], y[i] = pt[i][1], z[i] = pt[i][2];
+    tape_eval_interval_choices(t, ws, NBOX, boxes, r->F, r->choices);
+    tape_eval_grad(t, ws, NBOX, boxes, r->G);
+    tape_eval_point(t, ws, NBOX, x, y, z, r->P);
+    tape_eval_ray(t, ws, o, d, NBOX, T, r->g, r->dg, r->rnd);
+    tape_eval_ray(t, ws, o, d, NBOX, T, r->g_only, NULL, NULL);
+    tape_ws_free(ws);
+}
+
+static void same_results(const char *what, const char *path, const tape_t *t,
+                         const results_t *a, const results_t *b)
+{
+#define SAME(field, size)                                                                    \
+    if (memcmp(a->field, b->field, size))                                                    \
+        fail_msg("%s: path %s: %s differs from the portable path's", what, path, #field);
+    SAME(F, sizeof a->F);
+    SAME(choices, (size_t)NBOX * t->n);
+    SAME(G, sizeof a->G);
+    SAME(P, sizeof a->P);
+    SAME(g, sizeof a->g);
+    SAME(dg, sizeof a->dg);
+    SAME(g_only, sizeof a->g_only);
+    SAME(rnd, sizeof a->rnd);
+#undef SAME
+}
+
+static long evaluators_agree(const char *what, const tape_t *t, const double box[6],
+                             char paths[MAX_PATHS][16], int npaths, uint64_t *rng)
+{
+    iv_box_t boxes[NBOX];
+    double pt[NBOX][3];
+    iv_t T[NBOX];
+    double o[3], d[3], norm = 0;
+    for (int i = 0; i < NBOX; i++) {
+        boxes[i] = tu_random_subbox(box, rng);
+        tu_box_point(&boxes[i], i, rng, pt[i]);
+    }
+    for (int k = 0; k < 3; k++) {
+        o[k] = tu_lerp(box[2 * k], box[2 * k + 1], tu_uniform(rng));
+        d[k] = 2 * tu_uniform(rng) - 1;
+        norm += d[k] * d[k];
+    }
+    double edge = fmax(box[1] - box[0], fmax(box[3] - box[2], box[5] - box[4]));
+    for (int k = 0; k < 3; k++)
+        d[k] /= sqrt(norm);
+    for (int i = 0; i < NBOX; i++) {
+        double a = edge * (tu_uniform(rng) - 0.5), w = i % 5 == 0 ? 0 : edge * tu_uniform(rng) / 8;
+        T[i] = iv_make(a, a + w);
+    }
+    results_t *ref = calloc(1, sizeof *ref), *mine = calloc(1, sizeof *mine);
+    assert_non_null(ref);
+    assert_non_null(mine);
+    ref->choices = malloc((size_t)NBOX * t->n);
+    mine->choices = malloc((size_t)NBOX * t->n);
+    use_path(paths[0]);
+    evaluate(t, boxes, (const double(*)[3])pt, o, d, T, ref);
+    for (int p = 1; p < npaths; p++) {
+        use_path(paths[p]);
+        evaluate(t, boxes, (const double(*)[3])pt, o, d, T, mine);
+        same_results(what, paths[p], t, ref, mine);
+    }
+    free(ref->choices), free(mine->choices), free(ref), free(mine);
+    return NBOX;
+}
+
+static void test_evaluators(void **state)
+{
+    (void)state;
+    char paths[MAX_PATHS][16];
+    int npaths = available_paths(paths);
+    uint64_t rng = tu_seed(0x51dd);
+    long lanes = 0;
+    int rounds = tu_sanitizer_build() ? 2 : 8;
+    for (size_t e = 0; e < tu_n_op_exprs; e++) {
+        tape_t *t = tu_compile(tu_op_exprs[e]);
+        for (int b = 0; b < TU_N_OP_BOXES; b++)
+            for (int r = 0; r < rounds; r++)
+                lanes += evaluators_agree(tu_op_exprs[e], t, tu_op_boxes[b], paths, npaths, &rng);
+        tape_free(t);
+    }
+    char **files;
+    int n = tu_scene_files(&files);
+    for (int i = 0; i < n; i++) {
+        scene_t s;
+        tu_load_scene(files[i], &s);
+        for (int r = 0; r < rounds; r++)
+            lanes += evaluators_agree(files[i], s.tape, s.box, paths, npaths, &rng);
+        scene_free(&s);
+    }
+    tu_free_list(files, n);
+    printf("%d paths (", npaths);
+    for (int p = 0; p < npaths; p++)
+        printf("%s%s", p ? " " : "", paths[p]);
+    printf("): %ld lanes of every evaluator identical\n", lanes);
+    tape_simd_select(NULL, NULL);
+}
+
+static void test_trees(void **state)
+{
+    (void)state;
+    char paths[MAX_PATHS][16];
+    int npaths = available_paths(paths);
+    char dir[] = "/tmp/ivoct-simd-XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    int depth = tu_sanitizer_build() ? 4 : 6;
+    char **files;
+    int n = tu_scene_files(&files);
+    for (int i = 0; i < n; i++) {
+        scene_t s;
+        tu_load_scene(files[i], &s);
+        ivoct_error_t err;
+        ivoct_error_clear(&err);
+        double edge = fmax(s.box[1] - s.box[0], fmax(s.box[3] - s.box[2], s.box[5] - s.box[4]));
+        for (int chain = 0; chain < 2; chain++) {
+            unsigned tests =
+                chain ? OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ | OCT_TEST_ILIE : s.octree.tests;
+            unsigned char *first = NULL;
+            size_t first_n = 0;
+            for (int p = 0; p < npaths; p++) {
+                use_path(paths[p]);
+                for (int threads = 1; threads <= 2; threads++) {
+                    oct_params_t prm = {.depth = depth, .tests = tests,
+                                        .refine = chain ? 0.02 * edge : 0, .threads = threads};
+                    oct_tree_t *t;
+                    if (oct_build(s.tape, s.box, &prm, &t, &err) != 0)
+                        fail_msg("%s: oct_build: %s", files[i], err.msg);
+                    char out[4200];
+                    snprintf(out, sizeof out, "%s/tree.ivo", dir);
+                    if (oct_save(t, &s.source, out, &err) != 0)
+                        fail_msg("oct_save %s: %s", out, err.msg);
+                    size_t nb;
+                    unsigned char *bytes = tu_read_file(out, &nb);
+                    remove(out);
+                    oct_free(t);
+                    if (!first) {
+                        first = bytes, first_n = nb;
+                        continue;
+                    }
+                    if (nb != first_n || memcmp(bytes, first, nb))
+                        fail_msg("%s (%s): the tree of path %s, %d threads differs from "
+                                 "path %s, 1 thread",
+                                 files[i], chain ? "whole chain" : "scene's tests", paths[p],
+                                 threads, paths[0]);
+                    free(bytes);
+                }
+            }
+            free(first);
+        }
+        printf("%-40s depth %d: identical .ivo on %d paths x 1, 2 threads\n", s.source.name,
+               depth, npaths);
+        scene_free(&s);
+    }
+    tu_free_list(files, n);
+    rmdir(dir);
+    tape_simd_select(NULL, NULL);
+}
+
+/* tape_simd_select refuses names it does not know, and NULL is the default. */
+static void test_select(void **state)
+{
+    (void)state;
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    assert_int_not_equal(tape_simd_select("sse9", &err), 0);
+    assert_non_null(strstr(err.msg, "sse9"));
+    assert_non_null(strstr(err.msg, "portable"));
+    assert_int_equal(tape_simd_available("sse9"), 0);
+    assert_int_equal(tape_simd_available(NULL), 0);
+    assert_int_equal(tape_simd_available("portable"), 1);
+    assert_int_equal(tape_simd_select("portable", &err), 0);
+    assert_string_equal(tape_simd_name(), "portable");
+    assert_int_equal(tape_simd_select(NULL, &err), 0);
+    assert_true(tape_simd_available(tape_simd_name()));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_select),
+        cmocka_unit_test(test_evaluators),
+        cmocka_unit_test(test_trees),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -40,14 +40,17 @@ int main(int argc, char **argv)
         printf("ivoct %s\n", IVOCT_VERSION);
         return EXIT_OK;
     }
-    if (!strcmp(cmd, "eval"))
-        return cmd_eval(argc - 1, argv + 1);
-    if (!strcmp(cmd, "build"))
-        return cmd_build(argc - 1, argv + 1);
-    if (!strcmp(cmd, "info"))
-        return cmd_info(argc - 1, argv + 1);
-    if (!strcmp(cmd, "render"))
-        return cmd_render(argc - 1, argv + 1);
+    static const struct {
+        const char *name;
+        int (*run)(int, char **);
+    } commands[] = {
+        {"eval", cmd_eval}, {"build", cmd_build}, {"info", cmd_info}, {"render", cmd_render}};
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        if (!strcmp(cmd, commands[i].name)) {
+            /* before any thread is started */
+            cli_signals_start(commands[i].name);
+            return cli_signals_finish(commands[i].run(argc - 1, argv + 1));
+        }
     fprintf(stderr, "ivoct: unknown command '%s'\n%s", cmd, USAGE);
     return EXIT_USAGE;
 }

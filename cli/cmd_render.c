@@ -1,6 +1,7 @@
 /* ivoct render — ray cast a scene into a PNG and/or the .vti render buffers. */
 #define _POSIX_C_SOURCE 200809L
 #include <ctype.h>
+#include <errno.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -108,9 +109,13 @@ static int write_output(io_group_t *g, const char *path, int k, int frames, writ
     io_file_t f;
     int rc = io_open(&f, p, err);
     if (rc == 0) {
+        errno = 0;
         if (fn(f.f, img, cam, method, err)) {
+            /* a failed write: its reason (a full disk, a file too large)
+             * rather than the writer's "write error" */
+            int e = ferror(f.f) ? errno : 0;
             char why[512];
-            snprintf(why, sizeof why, "%s", err->msg);
+            snprintf(why, sizeof why, "%s", e ? strerror(e) : err->msg);
             ivoct_error_set(err, "cannot write %s: %s", p, why);
             io_abort(&f);
             rc = -1;

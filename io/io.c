@@ -154,7 +154,7 @@ int io_open(io_file_t *out, const char *path, ivoct_error_t *err)
 /* Flush, check and close f->f; 0, or the errno of the first failure. */
 static int close_checked(io_file_t *f)
 {
-    errno = 0;
+    /* after a failed fwrite, ferror is set and errno still tells why */
     int bad = fflush(f->f) != 0 || ferror(f->f);
     int e = bad ? (errno ? errno : EIO) : 0;
     if (fclose(f->f) != 0 && !bad)

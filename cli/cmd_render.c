@@ -422,7 +422,12 @@ int cmd_render(int argc, char **argv)
         }
         double t0 = omp_get_wtime();
         if (oct_build(s.tape, s.box, &op, &tree, &err)) {
-            fprintf(stderr, "ivoct render: building the octree: %s\n", err.msg);
+            if (max_memory)
+                fprintf(stderr, "ivoct render: building the octree in the %.1f MB that the image "
+                                "buffers leave of --max-memory: %s\n",
+                        (double)op.max_memory / 1048576, err.msg);
+            else
+                fprintf(stderr, "ivoct render: building the octree: %s\n", err.msg);
             rc = EXIT_RUNTIME;
             goto out;
         }

@@ -19,11 +19,12 @@ static const char USAGE[] =
     "  info    summarise an octree or export file: ivoct info FILE\n"
     "  render  ray cast a scene into a PNG and/or the .vti render buffers:\n"
     "          ivoct render SCENE [--octree F.ivo | --no-octree] [--no-leaf-tapes]\n"
-    "                       [--method M] [--size WxH] [--threads N] [--png F] [--vti F]\n"
-    "                       [--frames N] [--stats F.json] [--quiet]\n"
+    "                       [--method M] [--size WxH] [--threads N] [--max-memory SIZE]\n"
+    "                       [--png F] [--vti F] [--frames N] [--stats F.json] [--quiet]\n"
     "\n"
     "Run 'ivoct COMMAND --help' for the options of a command.\n"
-    "Exit codes: 0 ok, 1 runtime failure, 2 usage or input error.\n";
+    "Exit codes: 0 ok, 1 runtime failure, 2 usage or input error; SIGINT, SIGTERM\n"
+    "and SIGHUP end it by the signal (130, 143, 129), leaving no output of the command.\n";
 
 int main(int argc, char **argv)
 {

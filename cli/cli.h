@@ -4,6 +4,7 @@
 #ifndef IVOCT_CLI_H
 #define IVOCT_CLI_H
 
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -94,6 +95,10 @@ bool cli_parse_double(const char *cmd, const char *opt, const char *text, double
 bool cli_parse_int(const char *cmd, const char *opt, const char *text, long lo, long hi,
                    long *out);
 
+/* The parser (CLI_CUSTOM) of --max-memory: a size in bytes with an optional
+ * K, M or G suffix (and B); target is a size_t. */
+int cli_parse_memory(const char *opt, const char *value, void *target, char *msg, size_t n);
+
 /* Print a double for JSON with 17 significant digits (round-trip exact).
  * Infinities print as 1e999 / -1e999 (JSON has no infinity; JSON readers such
  * as Python's read them back as inf), NaN as null. */
@@ -113,5 +118,28 @@ typedef struct cli_progress {
 
 /* The callback: user is a cli_progress_t. */
 void cli_show_progress(void *user, double fraction);
+
+/* Non-zero while a bar is on screen without its newline (the signal thread
+ * ends the line before its message). */
+extern atomic_int cli_progress_open;
+
+/* ---- signals (signals.c) ---------------------------------------------------------
+ * SIGINT, SIGTERM and SIGHUP are taken by a thread of their own, which removes
+ * every temporary file of io/ and ends the process with the signal (exit
+ * status 128 + N in a shell); SIGXFSZ is ignored (a file past ulimit -f is a
+ * write error).  Called first thing in main, before any thread exists. */
+void cli_signals_start(const char *cmd);
+
+/* What main returns: rc, unless a signal is being handled, in which case this
+ * waits for the signal thread to end the process. */
+int cli_signals_finish(int rc);
+
+/* The test hook (tests/test_signals.sh): when IVOCT_TEST_PAUSE_AT is `step`,
+ * print "ivoct: test pause at STEP" on stderr and wait there for a signal.
+ * Steps: build (before the octree is built), each output of build (cells,
+ * save, stats, vtu, htg, vdb, mesh: before it is written), commit (before the
+ * outputs are renamed into place), render, frame (before each frame's files),
+ * and interrupted (in the signal thread, before the temporaries are removed). */
+void cli_test_pause(const char *step);
 
 #endif

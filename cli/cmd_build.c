@@ -23,28 +23,9 @@ static const char SYNOPSIS[] =
     "(f < 0) or outside (f > 0).\n"
     "\n";
 
-static int parse_size(const char *text, size_t *out)
-{
-    char *end;
-    double v = strtod(text, &end);
-    double mult = 1;
-    if (end == text || v < 0)
-        return -1;
-    switch (*end) {
-    case 'k': case 'K': mult = 1024.0, end++; break;
-    case 'm': case 'M': mult = 1024.0 * 1024, end++; break;
-    case 'g': case 'G': mult = 1024.0 * 1024 * 1024, end++; break;
-    default: break;
-    }
-    if (*end == 'B' || *end == 'b')
-        end++;
-    if (*end != '\0' || v * mult > 1e18)
-        return -1;
-    *out = (size_t)(v * mult);
-    return 0;
-}
-
-static int write_cells(const oct_tree_t *t, const char *path, ivoct_error_t *err)
+/* Each writer writes into the commit group g: its file is renamed into place
+ * with the others by io_group_commit, once every output is complete. */
+static int write_cells(const oct_tree_t *t, io_group_t *g, const char *path, ivoct_error_t *err)
 {
     io_file_t f;
     if (io_open(&f, path, err))
@@ -64,7 +45,7 @@ static int write_cells(const oct_tree_t *t, const char *path, ivoct_error_t *err
         }
         fprintf(f.f, "%.17g\n", oct_leaf_error_bound(t, i));
     }
-    return io_commit(&f, err);
+    return io_group_add(g, &f, err);
 }
 
 static void json_u64_array(FILE *f, const uint64_t *v, int n)
@@ -75,7 +56,7 @@ static void json_u64_array(FILE *f, const uint64_t *v, int n)
     fputc(']', f);
 }
 
-static int write_stats(const scene_t *s, const oct_tree_t *t, const char *path,
+static int write_stats(const scene_t *s, const oct_tree_t *t, io_group_t *g, const char *path,
                        ivoct_error_t *err)
 {
     const oct_stats_t *st = &t->stats;
@@ -121,9 +102,14 @@ static int write_stats(const scene_t *s, const oct_tree_t *t, const char *path,
                "  \"bytes_per_leaf\": ",
             st->peak_bytes, t->n_nodes, storage);
     cli_json_double(o, t->n_leaves ? (double)storage / t->n_leaves : 0.0);
-    fprintf(o, ",\n  \"leaf_record_bytes\": %zu,\n  \"threads\": %d,\n  \"simd\": \"%s\"\n}\n",
+    fprintf(o, ",
+  \"leaf_record_bytes\": %zu,
+  \"threads\": %d,
+  \"simd\": \"%s\"
+}
+",
             sizeof(oct_leaf_t), st->threads, tape_simd_name());
-    return io_commit(&f, err);
+    return io_group_add(g, &f, err);
 }
 
 /* ---- exports (export/): --vtu --htg --vdb --mesh ---------------------------------- */
@@ -140,17 +126,99 @@ static int check_exports(const exports_t *ex)
     return EXIT_OK;
 }
 
-static int write_exports(const scene_t *s, const oct_tree_t *t, const exports_t *ex,
-                         ivoct_error_t *err)
+/* The .ivo and the exports write their files themselves (through io_open and
+ * io_commit): each is given a temporary name reserved in the group, renamed
+ * into place by io_group_commit; errors name the destination. */
+static int reserve(io_group_t *g, const char *step, const char *path, const char **tmp,
+                   ivoct_error_t *err)
 {
-    if (ex->vtu && exp_vtu(t, &s->source, ex->vtu, err))
+    cli_test_pause(step);
+    return io_group_reserve(g, path, tmp, err);
+}
+
+static int write_exports(const scene_t *s, const oct_tree_t *t, const exports_t *ex,
+                         io_group_t *g, ivoct_error_t *err)
+{
+    const char *tmp;
+    int rc = 0;
+    if (!rc && ex->vtu && !(rc = reserve(g, "vtu", ex->vtu, &tmp, err)))
+        rc = exp_vtu(t, &s->source, tmp, err);
+    if (!rc && ex->htg && !(rc = reserve(g, "htg", ex->htg, &tmp, err)))
+        rc = exp_htg(t, s->tape, &s->source, tmp, err);
+    if (!rc && ex->vdb && !(rc = reserve(g, "vdb", ex->vdb, &tmp, err)))
+        rc = exp_vdb(t, s->tape, &s->source, tmp, err);
+    if (!rc && ex->mesh && !(rc = reserve(g, "mesh", ex->mesh, &tmp, err)))
+        rc = exp_mesh(t, s->tape, &s->source, tmp, err);
+    if (rc)
+        io_group_rename_error(g, err);
+    return rc ? -1 : 0;
+}
+
+static int write_save(const scene_t *s, const oct_tree_t *t, io_group_t *g, const char *path,
+                      ivoct_error_t *err)
+{
+    const char *tmp;
+    if (reserve(g, "save", path, &tmp, err))
         return -1;
-    if (ex->htg && exp_htg(t, s->tape, &s->source, ex->htg, err))
+    if (oct_save(t, &s->source, tmp, err)) {
+        io_group_rename_error(g, err);
         return -1;
-    if (ex->vdb && exp_vdb(t, s->tape, &s->source, ex->vdb, err))
-        return -1;
-    if (ex->mesh && exp_mesh(t, s->tape, &s->source, ex->mesh, err))
-        return -1;
+    }
+    return 0;
+}
+
+/* ---- the memory budget of the outputs (--max-memory) -------------------------------
+ * The build keeps within the budget by itself (oct_params_t.max_memory); the
+ * outputs are checked before the first is written: the tree's storage, which
+ * stays allocated, plus what the most demanding output needs on top must fit.
+ * VTK and OpenVDB allocate inside, so their needs are estimates: the growth of
+ * the peak resident size measured per unit (ivoct build on gumdrop and sphere
+ * at depths 7 and 8; cli/README.md) with a margin of about 1.5. */
+#define MEM_VTU_PER_LEAF 500.0    /* measured 265 .. 330 bytes */
+#define MEM_HTG_PER_NODE 300.0    /* measured 183 .. 197 bytes per node */
+#define MEM_VDB_PER_VOXEL 400.0   /* measured 131 .. 246 bytes per voxel of the max depth */
+#define MEM_VDB_FIXED (8.0 * 1024 * 1024)
+
+static double tree_bytes(const oct_tree_t *t)
+{
+    return (double)t->n_nodes * sizeof *t->nodes + (double)t->n_leaves * sizeof *t->leaves +
+           (t->slabs ? (double)t->n_leaves * sizeof *t->slabs : 0.0);
+}
+
+/* What --vdb and --mesh fill: every surface leaf's voxels of the max depth. */
+static double surface_voxels(const oct_tree_t *t)
+{
+    double v = 0;
+    for (uint32_t i = 0; i < t->n_leaves; i++)
+        v += ldexp(1.0, 3 * (t->depth - t->leaves[i].depth));
+    return v;
+}
+
+static int check_export_memory(const oct_tree_t *t, const char *save, const exports_t *ex,
+                               size_t budget, ivoct_error_t *err)
+{
+    double voxels = ex->vdb || ex->mesh ? surface_voxels(t) : 0;
+    struct {
+        const char *opt, *path;
+        double bytes;
+    } need[] = {
+        /* oct_save builds the file in a buffer that doubles as it grows */
+        {"--save", save, 2.0 * tree_bytes(t) + 65536.0},
+        {"--vtu", ex->vtu, MEM_VTU_PER_LEAF * t->n_leaves},
+        {"--htg", ex->htg, MEM_HTG_PER_NODE * t->n_nodes},
+        {"--vdb", ex->vdb, MEM_VDB_PER_VOXEL * voxels + MEM_VDB_FIXED},
+        {"--mesh", ex->mesh, MEM_VDB_PER_VOXEL * voxels + MEM_VDB_FIXED},
+    };
+    double base = tree_bytes(t);
+    for (size_t k = 0; k < sizeof need / sizeof need[0]; k++)
+        if (need[k].path && base + need[k].bytes > (double)budget) {
+            ivoct_error_set(err,
+                            "%s needs about %.1f MB beside the octree's %.1f MB (%u leaves): "
+                            "past the memory budget of %.1f MB (raise --max-memory)",
+                            need[k].opt, need[k].bytes / 1048576, base / 1048576, t->n_leaves,
+                            (double)budget / 1048576);
+            return -1;
+        }
     return 0;
 }
 
@@ -176,14 +244,6 @@ static int parse_refine(const char *opt, const char *value, void *target, char *
     }
     *(double *)target = v;
     return 0;
-}
-
-static int parse_memory(const char *opt, const char *value, void *target, char *msg, size_t n)
-{
-    if (!parse_size(value, target))
-        return 0;
-    snprintf(msg, n, "%s expects a size like 512M or 2G, got '%s'", opt, value);
-    return -1;
 }
 
 int cmd_build(int argc, char **argv)
@@ -213,7 +273,7 @@ int cmd_build(int argc, char **argv)
                  "scene [octree] refine, default 0 = off)"},
         {.name = "--threads", .kind = CLI_INT, .target = &threads, .lo = 1, .hi = 1024, .arg = "N",
          .help = "threads (default: all cores); the result is the same for any N"},
-        {.name = "--max-memory", .kind = CLI_CUSTOM, .target = &max_memory, .parse = parse_memory,
+        {.name = "--max-memory", .kind = CLI_CUSTOM, .target = &max_memory, .parse = cli_parse_memory,
          .arg = "SIZE", .help = "stop with an error past SIZE bytes (suffixes K M G), default none"},
         {.name = "--cells", .kind = CLI_STRING, .target = &cells, .arg = "F.csv",
          .help = "surface leaves, one per line in Morton order:\n"
@@ -276,19 +336,36 @@ int cmd_build(int argc, char **argv)
     p.progress = !quiet && isatty(2) ? cli_show_progress : NULL;
     p.progress_user = &prog;
     oct_tree_t *tree;
+    cli_test_pause("build");
     if (oct_build(s.tape, s.box, &p, &tree, &err)) {
         fprintf(stderr, "ivoct build: %s\n", err.msg);
         rc = EXIT_RUNTIME;
         goto out;
     }
-    if (cells && write_cells(tree, cells, &err))
+    /* every output goes to a temporary name; all are renamed at the end, and
+     * only when all were written (the commit group) */
+    io_group_t g = IO_GROUP_INIT;
+    if (max_memory && check_export_memory(tree, save, &ex, max_memory, &err))
         rc = EXIT_RUNTIME;
-    if (rc == EXIT_OK && save && oct_save(tree, &s.source, save, &err))
+    if (rc == EXIT_OK && cells)
+        cli_test_pause("cells");
+    if (rc == EXIT_OK && cells && write_cells(tree, &g, cells, &err))
         rc = EXIT_RUNTIME;
-    if (rc == EXIT_OK && stats && write_stats(&s, tree, stats, &err))
+    if (rc == EXIT_OK && save && write_save(&s, tree, &g, save, &err))
         rc = EXIT_RUNTIME;
-    if (rc == EXIT_OK && write_exports(&s, tree, &ex, &err))
+    if (rc == EXIT_OK && stats)
+        cli_test_pause("stats");
+    if (rc == EXIT_OK && stats && write_stats(&s, tree, &g, stats, &err))
         rc = EXIT_RUNTIME;
+    if (rc == EXIT_OK && write_exports(&s, tree, &ex, &g, &err))
+        rc = EXIT_RUNTIME;
+    if (rc == EXIT_OK) {
+        cli_test_pause("commit");
+        if (io_group_commit(&g, &err))
+            rc = EXIT_RUNTIME;
+    } else {
+        io_group_abort(&g);
+    }
     if (rc != EXIT_OK) {
         fprintf(stderr, "ivoct build: %s\n", err.msg);
     } else if (!quiet) {

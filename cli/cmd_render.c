@@ -1,6 +1,7 @@
 /* ivoct render — ray cast a scene into a PNG and/or the .vti render buffers. */
 #define _POSIX_C_SOURCE 200809L
 #include <ctype.h>
+#include <errno.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -94,8 +95,9 @@ static int png_writer(FILE *f, const ray_image_t *img, const ray_camera_t *cam,
     return ray_write_png(f, img, err);
 }
 
-/* Write one output through a temporary file; 0 on success. */
-static int write_output(const char *path, int k, int frames, writer_fn fn,
+/* Write one output into the commit group (renamed into place with every
+ * other output at the end); 0 on success. */
+static int write_output(io_group_t *g, const char *path, int k, int frames, writer_fn fn,
                         const ray_image_t *img, const ray_camera_t *cam, const char *method,
                         ivoct_error_t *err)
 {
@@ -107,14 +109,18 @@ static int write_output(const char *path, int k, int frames, writer_fn fn,
     io_file_t f;
     int rc = io_open(&f, p, err);
     if (rc == 0) {
+        errno = 0;
         if (fn(f.f, img, cam, method, err)) {
+            /* a failed write: its reason (a full disk, a file too large)
+             * rather than the writer's "write error" */
+            int e = ferror(f.f) ? errno : 0;
             char why[512];
-            snprintf(why, sizeof why, "%s", err->msg);
+            snprintf(why, sizeof why, "%s", e ? strerror(e) : err->msg);
             ivoct_error_set(err, "cannot write %s: %s", p, why);
             io_abort(&f);
             rc = -1;
         } else {
-            rc = io_commit(&f, err);
+            rc = io_group_add(g, &f, err);
         }
     }
     free(p);
@@ -147,7 +153,7 @@ typedef struct octree_info {
     double leaf_tapes_time_s;
 } octree_info_t;
 
-static int write_stats(const char *path, const scene_t *s, ray_method_t method, int width,
+static int write_stats(io_group_t *g, const char *path, const scene_t *s, ray_method_t method, int width,
                        int height, int frames, const ray_stats_t *st, const octree_info_t *oi,
                        ivoct_error_t *err)
 {
@@ -198,7 +204,7 @@ static int write_stats(const char *path, const scene_t *s, ray_method_t method, 
         }
     }
     fputs("\n}\n", o);
-    return io_commit(&f, err);
+    return io_group_add(g, &f, err);
 }
 
 /* Whether a saved octree was built from this scene's surface: the same box
@@ -231,6 +237,33 @@ static int same_surface(const scene_t *s, const oct_tree_t *t, const oct_source_
     return 1;
 }
 
+/* ---- the memory budget (--max-memory) ------------------------------------------------
+ * The image buffers (ray_image_t, known from the size) are taken off the
+ * budget first; the octree is built within what is left (oct_params_t.
+ * max_memory) or, when loaded, must fit in it.  Leaf tapes are an
+ * optimisation: when the tree, the image and they do not fit together, they
+ * are dropped and every leaf is searched with the scene's tape (the image is
+ * the same).  PNG and .vti are written row by row, in constant memory. */
+static double image_bytes(int width, int height)
+{
+    const double per_pixel = sizeof(double) * 10 /* t, point, normal, dir */ +
+                             3 /* rgb */ + 2 /* hit, kind */;
+    return per_pixel * width * height;
+}
+
+static double tree_bytes(const oct_tree_t *t)
+{
+    return (double)t->n_nodes * sizeof *t->nodes + (double)t->n_leaves * sizeof *t->leaves +
+           (t->slabs ? (double)t->n_leaves * sizeof *t->slabs : 0.0);
+}
+
+static double leaf_tapes_bytes(const oct_leaf_tapes_t *lt)
+{
+    return (double)lt->n_leaves * sizeof *lt->of_leaf +
+           (double)(lt->n_tapes + 1) * sizeof *lt->tapes +
+           (double)lt->n_clauses * sizeof *lt->clauses;
+}
+
 /* ---- options ------------------------------------------------------------------------ */
 
 static int parse_method(const char *opt, const char *value, void *target, char *msg, size_t n)
@@ -258,6 +291,7 @@ int cmd_render(int argc, char **argv)
     ray_method_t method = RAY_NEWTON_AH;
     long threads = 0, frames = 1;
     int size[2] = {0, 0};
+    size_t max_memory = 0;
     bool quiet = false, no_octree = false, no_leaf_tapes = false, method_given = false,
          size_given = false;
 
@@ -284,6 +318,10 @@ int cmd_render(int argc, char **argv)
          .help = "image size in pixels (scene [camera] size, default 300x300)"},
         {.name = "--threads", .kind = CLI_INT, .target = &threads, .lo = 1, .hi = 1024, .arg = "N",
          .help = "threads (default: all cores); the outputs are the same for any N"},
+        {.name = "--max-memory", .kind = CLI_CUSTOM, .target = &max_memory,
+         .parse = cli_parse_memory, .arg = "SIZE",
+         .help = "stop with an error past SIZE bytes (suffixes K M G) for the\n"
+                 "octree and the image buffers, default none"},
         {.name = "--png", .kind = CLI_STRING, .target = &png, .arg = "F",
          .help = "the shaded image, 8-bit RGB"},
         {.name = "--vti", .kind = CLI_STRING, .target = &vti, .arg = "F",
@@ -316,6 +354,9 @@ int cmd_render(int argc, char **argv)
         return EXIT_USAGE;
     }
     rc = EXIT_OK;
+    /* every output goes to a temporary name; all are renamed at the end, and
+     * only when all were written (the commit group) */
+    io_group_t group = IO_GROUP_INIT;
     ray_image_t img = {0};
     oct_tree_t *tree = NULL;
     oct_leaf_tapes_t *leaf_tapes = NULL;
@@ -332,6 +373,14 @@ int cmd_render(int argc, char **argv)
         goto out;
     }
     const int width = cam0.width, height = cam0.height;
+    if (max_memory && image_bytes(width, height) > (double)max_memory) {
+        fprintf(stderr, "ivoct render: the image buffers of %dx%d take %.1f MB: past the memory "
+                        "budget of %.1f MB (raise --max-memory)\n",
+                width, height, image_bytes(width, height) / 1048576,
+                (double)max_memory / 1048576);
+        rc = EXIT_RUNTIME;
+        goto out;
+    }
     const char *outputs[3] = {png, vti, stats};
     for (int k = 0; k < 3; k++)
         if (outputs[k] && probe_output(outputs[k], k == 2 ? 1 : (int)frames, &err)) {
@@ -358,6 +407,9 @@ int cmd_render(int argc, char **argv)
     } else if (!no_octree) {
         oct_params_t op = s.octree;
         op.threads = (int)threads;
+        /* at least 1 byte: 0 would mean no limit */
+        if (max_memory)
+            op.max_memory = (size_t)fmax(1.0, (double)max_memory - image_bytes(width, height));
         if (oct_params_check(&op, &err)) {
             fprintf(stderr, "ivoct render: %s: [octree] %s\n", scene_path, err.msg);
             rc = EXIT_USAGE;
@@ -370,13 +422,26 @@ int cmd_render(int argc, char **argv)
         }
         double t0 = omp_get_wtime();
         if (oct_build(s.tape, s.box, &op, &tree, &err)) {
-            fprintf(stderr, "ivoct render: building the octree: %s\n", err.msg);
+            if (max_memory)
+                fprintf(stderr, "ivoct render: building the octree in the %.1f MB that the image "
+                                "buffers leave of --max-memory: %s\n",
+                        (double)op.max_memory / 1048576, err.msg);
+            else
+                fprintf(stderr, "ivoct render: building the octree: %s\n", err.msg);
             rc = EXIT_RUNTIME;
             goto out;
         }
         oi.build_time_s = omp_get_wtime() - t0;
     }
     oi.tree = tree;
+    if (max_memory && tree && tree_bytes(tree) + image_bytes(width, height) > (double)max_memory) {
+        fprintf(stderr, "ivoct render: the octree (%.1f MB) and the image buffers (%.1f MB) are "
+                        "past the memory budget of %.1f MB (raise --max-memory)\n",
+                tree_bytes(tree) / 1048576, image_bytes(width, height) / 1048576,
+                (double)max_memory / 1048576);
+        rc = EXIT_RUNTIME;
+        goto out;
+    }
     if (ray_image_alloc(&img, width, height, &err)) {
         fprintf(stderr, "ivoct render: %s\n", err.msg);
         rc = EXIT_RUNTIME;
@@ -396,8 +461,13 @@ int cmd_render(int argc, char **argv)
             goto out;
         }
         oi.leaf_tapes_time_s = omp_get_wtime() - t0;
+        if (max_memory && tree_bytes(tree) + image_bytes(width, height) +
+                                  leaf_tapes_bytes(leaf_tapes) > (double)max_memory) {
+            oct_leaf_tapes_free(leaf_tapes); /* over the budget: the scene's tape */
+            leaf_tapes = NULL;
+        }
         oi.leaf_tapes = leaf_tapes;
-        if (leaf_tapes->n_tapes > 0 &&
+        if (leaf_tapes && leaf_tapes->n_tapes > 0 &&
             leaf_tapes->mean_clauses <= LEAF_TAPES_MAX_RATIO * s.tape->n) {
             trav.tapes = leaf_tapes;
             oi.leaf_tapes_used = 1;
@@ -418,6 +488,7 @@ int cmd_render(int argc, char **argv)
         ro.progress_ctx = &prog;
     }
     ray_stats_t total = {0};
+    cli_test_pause("render");
     for (int k = 0; k < frames; k++) {
         ray_camera_t cam;
         const double two_pi = 6.283185307179586;
@@ -441,8 +512,9 @@ int cmd_render(int argc, char **argv)
         total.leaves += st.leaves;
         total.time_s += st.time_s;
         total.threads = st.threads;
-        if ((png && write_output(png, k, (int)frames, png_writer, &img, &cam, NULL, &err)) ||
-            (vti && write_output(vti, k, (int)frames, ray_write_vti, &img, &cam,
+        cli_test_pause("frame");
+        if ((png && write_output(&group, png, k, (int)frames, png_writer, &img, &cam, NULL, &err)) ||
+            (vti && write_output(&group, vti, k, (int)frames, ray_write_vti, &img, &cam,
                                  ray_method_name(method), &err))) {
             fprintf(stderr, "ivoct render: %s\n", err.msg);
             rc = EXIT_RUNTIME;
@@ -450,7 +522,13 @@ int cmd_render(int argc, char **argv)
         }
     }
     if (stats &&
-        write_stats(stats, &s, method, width, height, (int)frames, &total, &oi, &err)) {
+        write_stats(&group, stats, &s, method, width, height, (int)frames, &total, &oi, &err)) {
+        fprintf(stderr, "ivoct render: %s\n", err.msg);
+        rc = EXIT_RUNTIME;
+        goto out;
+    }
+    cli_test_pause("commit");
+    if (io_group_commit(&group, &err)) {
         fprintf(stderr, "ivoct render: %s\n", err.msg);
         rc = EXIT_RUNTIME;
         goto out;
@@ -474,6 +552,7 @@ int cmd_render(int argc, char **argv)
                total.threads > 1 ? "s" : "");
     }
 out:
+    io_group_abort(&group); /* empty after a commit */
     oct_leaf_tapes_free(leaf_tapes);
     oct_free(tree);
     ray_image_free(&img);

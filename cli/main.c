@@ -21,13 +21,18 @@ static const char USAGE[] =
     "  info    summarise an octree or export file: ivoct info FILE\n"
     "  render  ray cast a scene into a PNG and/or the .vti render buffers:\n"
     "          ivoct render SCENE [--octree F.ivo | --no-octree] [--no-leaf-tapes]\n"
-    "                       [--method M] [--size WxH] [--threads N] [--png F] [--vti F]\n"
-    "                       [--frames N] [--stats F.json] [--quiet]\n"
+    "                       [--method M] [--size WxH] [--threads N] [--max-memory SIZE]\n"
+    "                       [--png F] [--vti F] [--frames N] [--stats F.json] [--quiet]\n"
     "\n"
     "Run 'ivoct COMMAND --help' for the options of a command.\n"
-    "Exit codes: 0 ok, 1 runtime failure, 2 usage or input error.\n"
-    "Environment: IVOCT_SIMD=portable|avx2|avx512 forces the evaluators' SIMD path\n"
-    "(default: the widest this CPU runs; every path gives the same results).\n";
+    "Exit codes: 0 ok, 1 runtime failure, 2 usage or input error; SIGINT, SIGTERM
+"
+    "and SIGHUP end it by the signal (130, 143, 129), leaving no output of the command.
+"
+    "Environment: IVOCT_SIMD=portable|avx2|avx512 forces the evaluators' SIMD path
+"
+    "(default: the widest this CPU runs; every path gives the same results).
+";
 
 int main(int argc, char **argv)
 {
@@ -54,14 +59,17 @@ int main(int argc, char **argv)
                tape_simd_paths());
         return EXIT_OK;
     }
-    if (!strcmp(cmd, "eval"))
-        return cmd_eval(argc - 1, argv + 1);
-    if (!strcmp(cmd, "build"))
-        return cmd_build(argc - 1, argv + 1);
-    if (!strcmp(cmd, "info"))
-        return cmd_info(argc - 1, argv + 1);
-    if (!strcmp(cmd, "render"))
-        return cmd_render(argc - 1, argv + 1);
+    static const struct {
+        const char *name;
+        int (*run)(int, char **);
+    } commands[] = {
+        {"eval", cmd_eval}, {"build", cmd_build}, {"info", cmd_info}, {"render", cmd_render}};
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        if (!strcmp(cmd, commands[i].name)) {
+            /* before any thread is started */
+            cli_signals_start(commands[i].name);
+            return cli_signals_finish(commands[i].run(argc - 1, argv + 1));
+        }
     fprintf(stderr, "ivoct: unknown command '%s'\n%s", cmd, USAGE);
     return EXIT_USAGE;
 }

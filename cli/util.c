@@ -73,8 +73,11 @@ void cli_show_progress(void *user, double fraction)
     fprintf(stderr, "\r%s [%.*s%*s] %3d%%", p->label, full,
             "########################################", width - full, "",
             (int)(total * 100 + 0.5));
-    if (total >= 1.0)
+    atomic_store(&cli_progress_open, 1);
+    if (total >= 1.0) {
         fputc('\n', stderr);
+        atomic_store(&cli_progress_open, 0);
+    }
     fflush(stderr);
 }
 
@@ -91,4 +94,27 @@ void cli_json_string(FILE *f, const char *s)
             fputc(c, f);
     }
     fputc('"', f);
+}
+
+int cli_parse_memory(const char *opt, const char *value, void *target, char *msg, size_t n)
+{
+    char *end;
+    double v = strtod(value, &end);
+    double mult = 1;
+    if (end != value && v >= 0) {
+        switch (*end) {
+        case 'k': case 'K': mult = 1024.0, end++; break;
+        case 'm': case 'M': mult = 1024.0 * 1024, end++; break;
+        case 'g': case 'G': mult = 1024.0 * 1024 * 1024, end++; break;
+        default: break;
+        }
+        if (*end == 'B' || *end == 'b')
+            end++;
+        if (*end == '\0' && v * mult <= 1e18) {
+            *(size_t *)target = (size_t)(v * mult);
+            return 0;
+        }
+    }
+    snprintf(msg, n, "%s expects a size like 512M or 2G, got '%s'", opt, value);
+    return -1;
 }

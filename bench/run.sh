@@ -34,6 +34,15 @@ scenes=()
 for s in $surfaces; do scenes+=("$root/scenes/$s.ini"); done
 "$build/bench/ivoct_bench_eval" "${scenes[@]}" | tee "$root/bench/results/eval.txt"
 
+part "SIMD paths and the level-by-level builder, against \$IVOCT_BENCH_BASE when set (bench/simd.sh)"
+if [ "$quick" = 1 ]; then
+    bash "$here/simd.sh" --build "$build" ${IVOCT_BENCH_BASE:+--base "$IVOCT_BENCH_BASE"} \
+        --surfaces "sphere gumdrop" --depths "6 7" --reps 1
+else
+    bash "$here/simd.sh" --build "$build" ${IVOCT_BENCH_BASE:+--base "$IVOCT_BENCH_BASE"} \
+        --depths "8 9" --reps 2
+fi
+
 part "octree build against dense sampling (bench/octree.sh)"
 bash "$here/octree.sh" --build "$build" "${q[@]}"
 

@@ -102,12 +102,7 @@ static int write_stats(const scene_t *s, const oct_tree_t *t, io_group_t *g, con
                "  \"bytes_per_leaf\": ",
             st->peak_bytes, t->n_nodes, storage);
     cli_json_double(o, t->n_leaves ? (double)storage / t->n_leaves : 0.0);
-    fprintf(o, ",
-  \"leaf_record_bytes\": %zu,
-  \"threads\": %d,
-  \"simd\": \"%s\"
-}
-",
+    fprintf(o, ",\n  \"leaf_record_bytes\": %zu,\n  \"threads\": %d,\n  \"simd\": \"%s\"\n}\n",
             sizeof(oct_leaf_t), st->threads, tape_simd_name());
     return io_group_add(g, &f, err);
 }

@@ -25,14 +25,10 @@ static const char USAGE[] =
     "                       [--png F] [--vti F] [--frames N] [--stats F.json] [--quiet]\n"
     "\n"
     "Run 'ivoct COMMAND --help' for the options of a command.\n"
-    "Exit codes: 0 ok, 1 runtime failure, 2 usage or input error; SIGINT, SIGTERM
-"
-    "and SIGHUP end it by the signal (130, 143, 129), leaving no output of the command.
-"
-    "Environment: IVOCT_SIMD=portable|avx2|avx512 forces the evaluators' SIMD path
-"
-    "(default: the widest this CPU runs; every path gives the same results).
-";
+    "Exit codes: 0 ok, 1 runtime failure, 2 usage or input error; SIGINT, SIGTERM\n"
+    "and SIGHUP end it by the signal (130, 143, 129), leaving no output of the command.\n"
+    "Environment: IVOCT_SIMD=portable|avx2|avx512 forces the evaluators' SIMD path\n"
+    "(default: the widest this CPU runs; every path gives the same results).\n";
 
 int main(int argc, char **argv)
 {

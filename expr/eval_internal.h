@@ -67,7 +67,7 @@ static inline iv_t fm_mul_add(iv_t p, iv_t q, iv_t r, iv_t s)
 /* an undefined branch makes the result undefined */
 static inline iv_t fm_hull_or_empty(iv_t a, iv_t b)
 {
-    int empty = iv_is_empty(a) | iv_is_empty(b);
+    int empty = (int)iv_is_empty(a) | (int)iv_is_empty(b);
     iv_t r = {a.lo < b.lo ? a.lo : b.lo, a.hi > b.hi ? a.hi : b.hi};
     r.lo = empty ? NAN : r.lo;
     r.hi = empty ? NAN : r.hi;

@@ -90,13 +90,13 @@ bool iv_from_decimal(const char *text, iv_t *out);
 static inline double iv_add_down(double x, double y)
 {
     double s = x + y;
-    return (x == 0) | (y == 0) ? s : iv_down(s);
+    return ((x == 0) | (y == 0)) ? s : iv_down(s);
 }
 
 static inline double iv_add_up(double x, double y)
 {
     double s = x + y;
-    return (x == 0) | (y == 0) ? s : iv_up(s);
+    return ((x == 0) | (y == 0)) ? s : iv_up(s);
 }
 
 static inline iv_t iv_add(iv_t a, iv_t b)
@@ -148,7 +148,7 @@ static inline iv_t iv_mul(iv_t a, iv_t b)
     int zero = ((a.lo == 0) & (a.hi == 0)) | ((b.lo == 0) & (b.hi == 0));
     lo = zero ? 0.0 : lo;
     hi = zero ? 0.0 : hi;
-    int empty = iv_is_empty(a) | iv_is_empty(b);
+    int empty = (int)iv_is_empty(a) | (int)iv_is_empty(b);
     iv_t out = {empty ? NAN : lo, empty ? NAN : hi};
     return out;
 }

@@ -41,7 +41,7 @@ static inline iv_t k_abs(iv_t a)
 /* iv_min and iv_max, branch-free (the same bounds). */
 static inline iv_t k_min(iv_t a, iv_t b)
 {
-    int empty = iv_is_empty(a) | iv_is_empty(b);
+    int empty = (int)iv_is_empty(a) | (int)iv_is_empty(b);
     iv_t r = {a.lo < b.lo ? a.lo : b.lo, a.hi < b.hi ? a.hi : b.hi};
     r.lo = empty ? NAN : r.lo;
     r.hi = empty ? NAN : r.hi;
@@ -50,7 +50,7 @@ static inline iv_t k_min(iv_t a, iv_t b)
 
 static inline iv_t k_max(iv_t a, iv_t b)
 {
-    int empty = iv_is_empty(a) | iv_is_empty(b);
+    int empty = (int)iv_is_empty(a) | (int)iv_is_empty(b);
     iv_t r = {a.lo > b.lo ? a.lo : b.lo, a.hi > b.hi ? a.hi : b.hi};
     r.lo = empty ? NAN : r.lo;
     r.hi = empty ? NAN : r.hi;

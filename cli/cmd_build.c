@@ -44,29 +44,6 @@ static int parse_size(const char *text, size_t *out)
     return 0;
 }
 
-static int write_cells(const oct_tree_t *t, const char *path, ivoct_error_t *err)
-{
-    io_file_t f;
-    if (io_open(&f, path, err))
-        return -1;
-    fputs("x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi,nx,ny,nz,d_lo,d_hi,error_bound\n", f.f);
-    for (uint32_t i = 0; i < t->n_leaves; i++) {
-        const oct_leaf_t *l = &t->leaves[i];
-        iv_box_t b = oct_leaf_box(t, l);
-        fprintf(f.f, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d,%.17g,%.17g,", b.x.lo, b.x.hi,
-                b.y.lo, b.y.hi, b.z.lo, b.z.hi, l->depth, l->f_lo, l->f_hi);
-        if (oct_leaf_has_slab(t, i)) {
-            const oct_slab_t *sl = &t->slabs[i];
-            fprintf(f.f, "%.17g,%.17g,%.17g,%.17g,%.17g,", sl->n[0], sl->n[1], sl->n[2],
-                    sl->d_lo, sl->d_hi);
-        } else {
-            fputs(",,,,,", f.f);
-        }
-        fprintf(f.f, "%.17g\n", oct_leaf_error_bound(t, i));
-    }
-    return io_commit(&f, err);
-}
-
 static void json_u64_array(FILE *f, const uint64_t *v, int n)
 {
     fputc('[', f);
@@ -281,7 +258,7 @@ int cmd_build(int argc, char **argv)
         rc = EXIT_RUNTIME;
         goto out;
     }
-    if (cells && write_cells(tree, cells, &err))
+    if (cells && exp_cells(tree, cells, (int)threads, &err))
         rc = EXIT_RUNTIME;
     if (rc == EXIT_OK && save && oct_save(tree, &s.source, save, &err))
         rc = EXIT_RUNTIME;

@@ -80,7 +80,8 @@ struct Formatter {
 
     explicit Formatter(const oct_tree_t *tree) : t(tree)
     {
-        if (t->depth <= TABLE_DEPTH && t->n_leaves > 0)
+        // a table when it is cheaper than formatting 6 numbers a leaf
+        if (t->depth <= TABLE_DEPTH && ((size_t)1 << t->depth) + 1 <= 2 * (size_t)t->n_leaves)
             for (int a = 0; a < 3; a++)
                 axes.emplace_back(t->box[2 * a], t->box[2 * a + 1], t->depth);
     }

@@ -3,6 +3,7 @@
 #
 #   bash bench/writers.sh [--build DIR] [--base IVOCT] [--depth N] [--reps N]
 #                         [--surfaces "gumdrop ..."] [--threads N] [--quick]
+#   bash bench/writers.sh --same-values --base IVOCT [--build DIR]
 #
 # Each output (--cells, --save, --vtu, --htg, --vdb) is written by its own
 # command, `ivoct build SCENE --depth N --stats F.json OUTPUT`; the writer's time
@@ -17,6 +18,13 @@
 # bench/results/writers.csv (binary, surface, output, bytes, build_s, write_s,
 # net_write_s, mb_per_s, cpu_s, write_cpu_s) and prints it as a table, with `uptime` before
 # and after.  Default: gumdrop at depth 9; --quick: depth 7, 1 run.
+#
+# --same-values: no timing; every scenes/*.ini (or --surfaces) at depth 6, with the scene's chain
+# and with every test and --refine 0.01, written by both binaries: the CSV and
+# .ivo must be byte-identical, the .vtu/.htg hold the same data bit for bit
+# (tests/same_vtk.py: whatever the compressor), the .vdb byte-identical but for
+# OpenVDB's random UUID (a --vdb that fails in both is skipped).  Exit 1 if any
+# differs.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/.." && pwd)
@@ -26,6 +34,8 @@ depth=9
 reps=3
 threads=""
 surfaces="gumdrop"
+same=0
+surfaces_given=0
 while [ $# -gt 0 ]; do
     case $1 in
     --build) build=$2; shift ;;
@@ -33,9 +43,10 @@ while [ $# -gt 0 ]; do
     --depth) depth=$2; shift ;;
     --reps) reps=$2; shift ;;
     --threads) threads=$2; shift ;;
-    --surfaces) surfaces=$2; shift ;;
+    --surfaces) surfaces=$2 surfaces_given=1; shift ;;
     --quick) depth=7 reps=1 ;;
-    -h | --help) sed -n '2,20p' "$0"; exit 0 ;;
+    --same-values) same=1 ;;
+    -h | --help) sed -n '2,28p' "$0"; exit 0 ;;
     *) echo "bench/writers.sh: unknown option $1" >&2; exit 2 ;;
     esac
     shift
@@ -45,6 +56,49 @@ mkdir -p "$root/bench/results"
 out=$root/bench/results/writers.csv
 work=$(mktemp -d /tmp/ivoct-writers.XXXXXX)
 trap 'rm -rf "$work"' EXIT
+if [ "$same" = 1 ]; then
+    [ -n "$base" ] || { echo "bench/writers.sh: --same-values needs --base IVOCT" >&2; exit 2; }
+    strip_uuid() { perl -0777 -pe 's/[0-9a-f]{8}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{12}/UUID/' "$1"; }
+    n=0 bad=0
+    list=("$root"/scenes/*.ini)
+    if [ "$surfaces_given" = 1 ]; then
+        list=()
+        for s in $surfaces; do list+=("$root/scenes/$s.ini"); done
+    fi
+    for scene in "${list[@]}"; do
+        name=$(basename "$scene" .ini)
+        for v in chain slabs; do
+            opts=()
+            [ $v = slabs ] && opts=(--tests interval,lipschitz,ilie --refine 0.01)
+            for side in a b; do
+                bin=$new
+                [ $side = b ] && bin=$base
+                "$bin" build "$scene" --depth 6 --quiet "${opts[@]}" --save "$work/$side.ivo" \
+                    --cells "$work/$side.csv" --vtu "$work/$side.vtu" --htg "$work/$side.htg"
+                "$bin" build "$scene" --depth 6 --quiet "${opts[@]}" --vdb "$work/$side.vdb" \
+                    2>/dev/null || rm -f "$work/$side.vdb"
+            done
+            differ() { echo "differ: $name ($v) .$1"; bad=$((bad + 1)); }
+            for f in csv ivo; do
+                n=$((n + 1))
+                cmp -s "$work/a.$f" "$work/b.$f" || differ $f
+            done
+            for f in vtu htg; do
+                n=$((n + 1))
+                /usr/bin/python3 "$root/tests/same_vtk.py" "$work/a.$f" "$work/b.$f" || differ $f
+            done
+            if [ -e "$work/a.vdb" ] || [ -e "$work/b.vdb" ]; then
+                n=$((n + 1))
+                cmp -s <(strip_uuid "$work/a.vdb") <(strip_uuid "$work/b.vdb") || differ vdb
+            fi
+            rm -f "$work"/a.* "$work"/b.*
+        done
+    done
+    echo "$n files compared, $bad differ"
+    [ "$bad" = 0 ]
+    exit
+fi
+
 bins=(new)
 [ -n "$base" ] && bins+=(base)
 thr=()

@@ -81,6 +81,9 @@ else
     echo "(skipped: no $build/bench/ivoct_ray_error; it needs export/ and MPFR)"
 fi
 
+part "the writers of ivoct build: seconds per output against the build (bench/writers.sh)"
+bash "$here/writers.sh" --build "$build" "${q[@]}"
+
 part "numerical stability stress cases (bench/stability.sh)"
 bash "$here/stability.sh" --build "$build"
 

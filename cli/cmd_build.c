@@ -25,28 +25,6 @@ static const char SYNOPSIS[] =
 
 /* Each writer writes into the commit group g: its file is renamed into place
  * with the others by io_group_commit, once every output is complete. */
-static int write_cells(const oct_tree_t *t, io_group_t *g, const char *path, ivoct_error_t *err)
-{
-    io_file_t f;
-    if (io_open(&f, path, err))
-        return -1;
-    fputs("x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi,nx,ny,nz,d_lo,d_hi,error_bound\n", f.f);
-    for (uint32_t i = 0; i < t->n_leaves; i++) {
-        const oct_leaf_t *l = &t->leaves[i];
-        iv_box_t b = oct_leaf_box(t, l);
-        fprintf(f.f, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d,%.17g,%.17g,", b.x.lo, b.x.hi,
-                b.y.lo, b.y.hi, b.z.lo, b.z.hi, l->depth, l->f_lo, l->f_hi);
-        if (oct_leaf_has_slab(t, i)) {
-            const oct_slab_t *sl = &t->slabs[i];
-            fprintf(f.f, "%.17g,%.17g,%.17g,%.17g,%.17g,", sl->n[0], sl->n[1], sl->n[2],
-                    sl->d_lo, sl->d_hi);
-        } else {
-            fputs(",,,,,", f.f);
-        }
-        fprintf(f.f, "%.17g\n", oct_leaf_error_bound(t, i));
-    }
-    return io_group_add(g, &f, err);
-}
 
 static void json_u64_array(FILE *f, const uint64_t *v, int n)
 {
@@ -149,6 +127,20 @@ static int write_exports(const scene_t *s, const oct_tree_t *t, const exports_t 
     return rc ? -1 : 0;
 }
 
+/* --cells: the CSV of the surface leaves (export/cells.cpp, threads formatting blocks) */
+static int write_cells(const oct_tree_t *t, io_group_t *g, const char *path, int threads,
+                       ivoct_error_t *err)
+{
+    const char *tmp;
+    if (io_group_reserve(g, path, &tmp, err))
+        return -1;
+    if (exp_cells(t, tmp, threads, err)) {
+        io_group_rename_error(g, err);
+        return -1;
+    }
+    return 0;
+}
+
 static int write_save(const scene_t *s, const oct_tree_t *t, io_group_t *g, const char *path,
                       ivoct_error_t *err)
 {
@@ -173,6 +165,9 @@ static int write_save(const scene_t *s, const oct_tree_t *t, io_group_t *g, cons
 #define MEM_HTG_PER_NODE 300.0    /* measured 183 .. 197 bytes per node */
 #define MEM_VDB_PER_VOXEL 400.0   /* measured 131 .. 246 bytes per voxel of the max depth */
 #define MEM_VDB_FIXED (8.0 * 1024 * 1024)
+/* export/cells.cpp: per formatting thread a ring of 2 blocks of 16384 rows of
+ * at most ~350 characters (computed, not measured) */
+#define MEM_CELLS_PER_THREAD (12.0 * 1024 * 1024)
 
 static double tree_bytes(const oct_tree_t *t)
 {
@@ -189,7 +184,8 @@ static double surface_voxels(const oct_tree_t *t)
     return v;
 }
 
-static int check_export_memory(const oct_tree_t *t, const char *save, const exports_t *ex,
+static int check_export_memory(const oct_tree_t *t, const char *cells, const char *save,
+                               const exports_t *ex,
                                size_t budget, ivoct_error_t *err)
 {
     double voxels = ex->vdb || ex->mesh ? surface_voxels(t) : 0;
@@ -199,6 +195,7 @@ static int check_export_memory(const oct_tree_t *t, const char *save, const expo
     } need[] = {
         /* oct_save builds the file in a buffer that doubles as it grows */
         {"--save", save, 2.0 * tree_bytes(t) + 65536.0},
+        {"--cells", cells, MEM_CELLS_PER_THREAD * (t->stats.threads > 0 ? t->stats.threads : 1)},
         {"--vtu", ex->vtu, MEM_VTU_PER_LEAF * t->n_leaves},
         {"--htg", ex->htg, MEM_HTG_PER_NODE * t->n_nodes},
         {"--vdb", ex->vdb, MEM_VDB_PER_VOXEL * voxels + MEM_VDB_FIXED},
@@ -340,11 +337,11 @@ int cmd_build(int argc, char **argv)
     /* every output goes to a temporary name; all are renamed at the end, and
      * only when all were written (the commit group) */
     io_group_t g = IO_GROUP_INIT;
-    if (max_memory && check_export_memory(tree, save, &ex, max_memory, &err))
+    if (max_memory && check_export_memory(tree, cells, save, &ex, max_memory, &err))
         rc = EXIT_RUNTIME;
     if (rc == EXIT_OK && cells)
         cli_test_pause("cells");
-    if (rc == EXIT_OK && cells && write_cells(tree, &g, cells, &err))
+    if (rc == EXIT_OK && cells && write_cells(tree, &g, cells, (int)threads, &err))
         rc = EXIT_RUNTIME;
     if (rc == EXIT_OK && save && write_save(&s, tree, &g, save, &err))
         rc = EXIT_RUNTIME;

@@ -150,6 +150,11 @@ using namespace ivexp;
 
 extern "C" {
 
+int exp_cells(const oct_tree_t *tree, const char *path, int threads, ivoct_error_t *err)
+{
+    return guard(err, [&] { write_cells(tree, path, threads); });
+}
+
 int exp_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *path,
             ivoct_error_t *err)
 {

@@ -5,6 +5,9 @@
  * (VTK and OpenVDB are C++ libraries) behind this C interface: every C++
  * exception is caught here and becomes an error, and nothing is printed.
  *
+ * Binary data in the VTK files is LZ4-compressed (VTK's vtkLZ4DataCompressor,
+ * read by VTK >= 8.2 and ParaView >= 5.6), UInt64 headers.
+ *
  * Every file is written to a temporary name beside the destination and
  * renamed once complete (io/io.h), so a failure never leaves a partial file;
  * a device (/dev/full, /dev/stdout) is written in place.
@@ -32,6 +35,16 @@ extern "C" {
 
 /* Half width of the narrow band of the sdf grid, in voxels (OpenVDB's default). */
 #define EXP_SDF_HALF_WIDTH 3
+
+/* The cell list (`ivoct build --cells F.csv`): a header line
+ *   x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi,nx,ny,nz,d_lo,d_hi,error_bound
+ * then one row per surface leaf in leaf (Morton) order: its bounds (the
+ * doubles of oct_coord), depth, enclosure of f, ILIE slab (five empty fields
+ * where the leaf has none) and oct_leaf_error_bound.  Numbers as printf's
+ * %.17g writes them (17 significant digits: they read back to the same
+ * doubles).  Rows are formatted by `threads` threads (<= 0: one per core);
+ * the file is the same for any count. */
+int exp_cells(const oct_tree_t *tree, const char *path, int threads, ivoct_error_t *err);
 
 /* .vtu: an UnstructuredGrid of the surface leaves as VTK_VOXEL cells (points
  * shared between neighbours, coordinates the exact doubles of oct_coord), in

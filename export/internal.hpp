@@ -6,11 +6,15 @@
 #ifndef IVOCT_EXPORT_INTERNAL_HPP
 #define IVOCT_EXPORT_INTERNAL_HPP
 
+#include <atomic>
 #include <cstdint>
 #include <cstdio>
+#include <exception>
+#include <mutex>
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "export.h"
@@ -70,6 +74,9 @@ struct MetaItem {
 };
 std::vector<MetaItem> meta_strings(const oct_source_t *src);
 
+// cells.cpp
+void write_cells(const oct_tree_t *tree, const char *path, int threads);
+
 // vdb.cpp
 void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
                const char *path);
@@ -95,6 +102,58 @@ struct Workspace {
     Workspace &operator=(const Workspace &) = delete;
     tape_ws_t *ws;
 };
+
+// Threads for a writer of this tree: the build's count (--threads), all cores
+// when it is not known (a tree read from a file), never more than `jobs`.
+inline int writer_threads(const oct_tree_t *tree, size_t jobs)
+{
+    int n = tree->stats.threads > 0 ? tree->stats.threads
+                                    : (int)std::thread::hardware_concurrency();
+    if (n < 1)
+        n = 1;
+    return (int)((size_t)n < jobs ? (size_t)n : (jobs ? jobs : 1));
+}
+
+// body(first, last, worker) over [0, n) in chunks of `chunk`, by `threads`
+// threads (worker in 0..threads-1, for per-thread workspaces); the chunks are
+// independent, so the result does not depend on the count.  The first
+// exception of any thread is rethrown here once all have stopped.
+template <class F> void parallel_chunks(size_t n, size_t chunk, int threads, F &&body)
+{
+    const size_t n_chunks = (n + chunk - 1) / chunk;
+    if (threads <= 1 || n_chunks <= 1) {
+        for (size_t s = 0; s < n; s += chunk)
+            body(s, s + chunk < n ? s + chunk : n, 0);
+        return;
+    }
+    std::atomic<size_t> next{0};
+    std::exception_ptr failure;
+    std::mutex m;
+    auto run = [&](int worker) {
+        try {
+            for (size_t c; (c = next.fetch_add(1)) < n_chunks;) {
+                size_t s = c * chunk;
+                body(s, s + chunk < n ? s + chunk : n, worker);
+            }
+        } catch (...) {
+            std::lock_guard<std::mutex> lk(m);
+            if (!failure)
+                failure = std::current_exception();
+            next = n_chunks;
+        }
+    };
+    std::vector<std::thread> pool;
+    try {
+        for (int w = 1; w < threads; w++)
+            pool.emplace_back(run, w);
+    } catch (...) {  // no thread: the work is done by those there are
+    }
+    run(0);
+    for (auto &t : pool)
+        t.join();
+    if (failure)
+        std::rethrow_exception(failure);
+}
 
 }  // namespace ivexp
 

@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <ostream>
 #include <streambuf>
 
@@ -152,13 +153,18 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
         coords.push_back(it.getCoord());
         sign.push_back(sacc.isValueOn(it.getCoord()) ? 0 : *it < 0 ? -1 : 1);
     }
+    // f and its gradient at every band voxel: the one evaluation the build has
+    // not made (it knows f over cells, not at voxel centres), in chunks over threads
     const size_t n = coords.size(), chunk = 4096;
     std::vector<float> value(n);
-    std::vector<iv_box_t> boxes(chunk);
-    std::vector<iv_grad_t> out(chunk);
-    Workspace ws(tape);
-    for (size_t s = 0; s < n; s += chunk) {
-        size_t m = std::min(chunk, n - s);
+    const int threads = writer_threads(t, (n + chunk - 1) / chunk);
+    std::vector<std::unique_ptr<Workspace>> ws;
+    for (int w = 0; w < threads; w++)
+        ws.push_back(std::make_unique<Workspace>(tape));
+    parallel_chunks(n, chunk, threads, [&](size_t s, size_t e, int w) {
+        const size_t m = e - s;
+        std::vector<iv_box_t> boxes(m);
+        std::vector<iv_grad_t> out(m);
         for (size_t k = 0; k < m; k++) {
             const Coord &c = coords[s + k];
             double p[3];
@@ -166,7 +172,7 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
                 p[a] = fr.lo[a] + ((double)c[a] + 0.5) * fr.h[a];
             boxes[k] = iv_box_t{iv_point(p[0]), iv_point(p[1]), iv_point(p[2])};
         }
-        tape_eval_grad(tape, ws.ws, m, boxes.data(), out.data());
+        tape_eval_grad(tape, ws[(size_t)w]->ws, m, boxes.data(), out.data());
         for (size_t k = 0; k < m; k++) {
             const iv_grad_t &q = out[k];
             double f = iv_mid(q.v);
@@ -181,7 +187,7 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
                 d = cls * std::max(std::fabs(d), 1e-3 * fr.max_h());
             value[s + k] = (float)d;
         }
-    }
+    });
     size_t k = 0;
     for (auto it = g->tree().beginValueOn(); it; ++it)
         it.setValue(value[k++]);

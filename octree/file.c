@@ -24,42 +24,62 @@
 #define VERSION 2u
 #define MAX_FILE ((size_t)1 << 36)
 
-static uint64_t fnv1a(const unsigned char *p, size_t n)
+/* ---- writing through a buffer ----------------------------------------------------
+ * The file goes out in large writes as it is made: a 1 MB staging buffer for
+ * the small fields and the repacked leaves, and on a little-endian host the
+ * node words and the slabs (the file's own byte order) straight from the tree's
+ * arrays, one fwrite each.  The checksum is carried along over every byte. */
+
+#define WBUF_SIZE ((size_t)1 << 20)
+
+#if defined(__BYTE_ORDER__) && defined(__ORDER_LITTLE_ENDIAN__) && \
+    __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+#define HOST_LITTLE_ENDIAN 1
+#else
+#define HOST_LITTLE_ENDIAN 0
+#endif
+
+typedef struct wbuf {
+    FILE *f;
+    unsigned char *p;
+    size_t n;
+    uint64_t hash; /* FNV-1a of every byte put so far */
+} wbuf_t;
+
+static uint64_t fnv1a_more(uint64_t h, const unsigned char *p, size_t n)
 {
-    uint64_t h = 0xcbf29ce484222325ull;
     for (size_t i = 0; i < n; i++)
         h = (h ^ p[i]) * 0x100000001b3ull;
     return h;
 }
 
-/* ---- writing into a growing buffer ---------------------------------------------- */
-
-typedef struct buf {
-    unsigned char *p;
-    size_t n, cap;
-    int oom;
-} buf_t;
-
-static void put(buf_t *b, const void *src, size_t n)
+static void emit(wbuf_t *b, const void *src, size_t n)
 {
-    if (b->oom)
+    b->hash = fnv1a_more(b->hash, src, n);
+    /* a failed write sets the stream's error flag, which io_commit reports */
+    if (n && !ferror(b->f))
+        fwrite(src, 1, n, b->f);
+}
+
+static void flush(wbuf_t *b)
+{
+    emit(b, b->p, b->n);
+    b->n = 0;
+}
+
+static void put(wbuf_t *b, const void *src, size_t n)
+{
+    if (b->n + n > WBUF_SIZE)
+        flush(b);
+    if (n > WBUF_SIZE) {
+        emit(b, src, n);
         return;
-    if (b->n + n > b->cap) {
-        size_t cap = b->cap ? b->cap : 4096;
-        while (cap < b->n + n)
-            cap *= 2;
-        unsigned char *q = realloc(b->p, cap);
-        if (!q) {
-            b->oom = 1;
-            return;
-        }
-        b->p = q, b->cap = cap;
     }
     memcpy(b->p + b->n, src, n);
     b->n += n;
 }
 
-static void put_u64(buf_t *b, uint64_t v)
+static void put_u64(wbuf_t *b, uint64_t v)
 {
     unsigned char c[8];
     for (int i = 0; i < 8; i++)
@@ -67,7 +87,7 @@ static void put_u64(buf_t *b, uint64_t v)
     put(b, c, 8);
 }
 
-static void put_u32(buf_t *b, uint32_t v)
+static void put_u32(wbuf_t *b, uint32_t v)
 {
     unsigned char c[4];
     for (int i = 0; i < 4; i++)
@@ -75,24 +95,39 @@ static void put_u32(buf_t *b, uint32_t v)
     put(b, c, 4);
 }
 
-static void put_f64(buf_t *b, double x)
+static void put_f64(wbuf_t *b, double x)
 {
     uint64_t v;
     memcpy(&v, &x, 8);
     put_u64(b, v);
 }
 
-static void put_str(buf_t *b, const char *s)
+static void put_str(wbuf_t *b, const char *s)
 {
     size_t n = s ? strlen(s) : 0;
     put_u32(b, (uint32_t)n);
     put(b, s ? s : "", n);
 }
 
+static uint64_t fnv1a(const unsigned char *p, size_t n)
+{
+    return fnv1a_more(0xcbf29ce484222325ull, p, n);
+}
+
 int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
              ivoct_error_t *err)
 {
-    buf_t b = {0};
+    wbuf_t b = {NULL, malloc(WBUF_SIZE), 0, 0xcbf29ce484222325ull};
+    if (!b.p) {
+        ivoct_error_set(err, "cannot write %s: out of memory", path);
+        return -1;
+    }
+    io_file_t f;
+    if (io_open(&f, path, err)) {
+        free(b.p);
+        return -1;
+    }
+    b.f = f.f;
     put(&b, MAGIC, 8);
     put_u32(&b, VERSION);
     put_u32(&b, (uint32_t)tree->depth);
@@ -110,38 +145,47 @@ int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
     put_str(&b, src ? src->f : "");
     put_u32(&b, tree->n_nodes);
     put_u32(&b, tree->n_leaves);
-    for (uint32_t i = 0; i < tree->n_nodes; i++)
-        put_u32(&b, tree->nodes[i]);
+    if (HOST_LITTLE_ENDIAN) {
+        put(&b, tree->nodes, (size_t)tree->n_nodes * sizeof *tree->nodes);
+    } else {
+        for (uint32_t i = 0; i < tree->n_nodes; i++)
+            put_u32(&b, tree->nodes[i]);
+    }
+    /* 25 bytes a leaf in the file, 32 in memory (alignment): repacked */
     for (uint32_t i = 0; i < tree->n_leaves; i++) {
         const oct_leaf_t *l = &tree->leaves[i];
+        if (HOST_LITTLE_ENDIAN && b.n + 25 <= WBUF_SIZE) {
+            unsigned char *q = b.p + b.n;
+            memcpy(q, &l->code, 8);
+            memcpy(q + 8, &l->f_lo, 8);
+            memcpy(q + 16, &l->f_hi, 8);
+            q[24] = l->depth;
+            b.n += 25;
+            continue;
+        }
         put_u64(&b, l->code);
         put_f64(&b, l->f_lo);
         put_f64(&b, l->f_hi);
         put(&b, &l->depth, 1);
     }
-    for (uint32_t i = 0; tree->slabs && i < tree->n_leaves; i++) {
-        const oct_slab_t *sl = &tree->slabs[i];
-        for (int k = 0; k < 3; k++)
-            put_f64(&b, sl->n[k]);
-        put_f64(&b, sl->d_lo);
-        put_f64(&b, sl->d_hi);
-        put_f64(&b, sl->thickness);
+    if (tree->slabs && HOST_LITTLE_ENDIAN && sizeof(oct_slab_t) == 48) {
+        put(&b, tree->slabs, (size_t)tree->n_leaves * sizeof *tree->slabs);
+    } else {
+        for (uint32_t i = 0; tree->slabs && i < tree->n_leaves; i++) {
+            const oct_slab_t *sl = &tree->slabs[i];
+            for (int k = 0; k < 3; k++)
+                put_f64(&b, sl->n[k]);
+            put_f64(&b, sl->d_lo);
+            put_f64(&b, sl->d_hi);
+            put_f64(&b, sl->thickness);
+        }
     }
-    if (!b.oom)
-        put_u64(&b, fnv1a(b.p, b.n));
-    if (b.oom) {
-        free(b.p);
-        ivoct_error_set(err, "cannot write %s: out of memory", path);
-        return -1;
-    }
-    io_file_t f;
-    int rc = io_open(&f, path, err);
-    if (rc == 0) {
-        fwrite(b.p, 1, b.n, f.f);
-        rc = io_commit(&f, err);
-    }
+    flush(&b);
+    uint64_t sum = b.hash;
+    put_u64(&b, sum);
+    flush(&b);
     free(b.p);
-    return rc;
+    return io_commit(&f, err);
 }
 
 /* ---- reading with bounds checks ---------------------------------------------------- */

@@ -185,8 +185,7 @@ static double surface_voxels(const oct_tree_t *t)
 }
 
 static int check_export_memory(const oct_tree_t *t, const char *cells, const char *save,
-                               const exports_t *ex,
-                               size_t budget, ivoct_error_t *err)
+                               const exports_t *ex, size_t budget, ivoct_error_t *err)
 {
     double voxels = ex->vdb || ex->mesh ? surface_voxels(t) : 0;
     struct {

@@ -35,7 +35,8 @@ static int write_cells(const oct_tree_t *t, io_group_t *g, const char *path, ivo
         const oct_leaf_t *l = &t->leaves[i];
         iv_box_t b = oct_leaf_box(t, l);
         fprintf(f.f, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d,%.17g,%.17g,", b.x.lo, b.x.hi,
-                b.y.lo, b.y.hi, b.z.lo, b.z.hi, l->depth, l->f_lo, l->f_hi);
+                b.y.lo, b.y.hi, b.z.lo, b.z.hi, oct_leaf_depth(l), (double)l->f_lo,
+                (double)l->f_hi);
         if (oct_leaf_has_slab(t, i)) {
             const oct_slab_t *sl = &t->slabs[i];
             fprintf(f.f, "%.17g,%.17g,%.17g,%.17g,%.17g,", sl->n[0], sl->n[1], sl->n[2],
@@ -190,7 +191,7 @@ static double surface_voxels(const oct_tree_t *t)
 {
     double v = 0;
     for (uint32_t i = 0; i < t->n_leaves; i++)
-        v += ldexp(1.0, 3 * (t->depth - t->leaves[i].depth));
+        v += ldexp(1.0, 3 * (t->depth - oct_leaf_depth(&t->leaves[i])));
     return v;
 }
 

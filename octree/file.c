@@ -114,10 +114,11 @@ int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
         put_u32(&b, tree->nodes[i]);
     for (uint32_t i = 0; i < tree->n_leaves; i++) {
         const oct_leaf_t *l = &tree->leaves[i];
-        put_u64(&b, l->code);
+        unsigned char depth = (unsigned char)oct_leaf_depth(l);
+        put_u64(&b, oct_leaf_code(l));
         put_f64(&b, l->f_lo);
         put_f64(&b, l->f_hi);
-        put(&b, &l->depth, 1);
+        put(&b, &depth, 1);
     }
     for (uint32_t i = 0; tree->slabs && i < tree->n_leaves; i++) {
         const oct_slab_t *sl = &tree->slabs[i];
@@ -271,7 +272,7 @@ static const char *check_structure(const oct_tree_t *t)
         case OCT_LEAF:
             if (val != next_leaf || val >= t->n_leaves)
                 why = "leaves out of order";
-            else if (t->leaves[val].depth != depth || t->leaves[val].code != code)
+            else if (t->leaves[val].key != ((uint64_t)1 << (3 * depth) | code))
                 why = "leaf code does not match its place";
             next_leaf++;
             break;
@@ -401,12 +402,15 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
     for (uint32_t i = 0; i < t->n_nodes; i++)
         t->nodes[i] = get_u32(&r);
     for (uint32_t i = 0; i < t->n_leaves; i++) {
-        oct_leaf_t *l = &t->leaves[i];
-        l->code = get_u64(&r);
-        l->f_lo = get_f64(&r);
-        l->f_hi = get_f64(&r);
+        uint64_t code = get_u64(&r);
+        double f_lo = get_f64(&r), f_hi = get_f64(&r);
         const unsigned char *d = take(&r, 1);
-        l->depth = d ? *d : 0;
+        /* a depth or code that does not fit is caught by the structure check
+         * below (the leaf must be at the place its code names) */
+        int depth = d && *d <= OCT_MAX_DEPTH ? *d : 0;
+        t->leaves[i] = oct_leaf_make(code & (((uint64_t)1 << (3 * depth)) - 1), depth, f_lo, f_hi);
+        if (d && (*d > OCT_MAX_DEPTH || code >> (3 * depth)))
+            t->leaves[i].key = 0; /* matches no place: the check refuses it */
     }
     if (has_slabs) {
         t->slabs = malloc(((size_t)t->n_leaves + 1) * sizeof *t->slabs);

@@ -212,8 +212,9 @@ int main(int argc, char **argv)
         uint64_t octree_cells = 0;
         for (uint32_t l = 0; l < t->n_leaves; l++) {
             uint32_t ix, iy, iz;
-            oct_unmorton(t->leaves[l].code, t->leaves[l].depth, &ix, &iy, &iz);
-            int sh = depth - t->leaves[l].depth;
+            oct_unmorton(oct_leaf_code(&t->leaves[l]), oct_leaf_depth(&t->leaves[l]), &ix, &iy,
+                         &iz);
+            int sh = depth - oct_leaf_depth(&t->leaves[l]);
             for (uint32_t zz = iz << sh; zz < (iz + 1) << sh; zz++)
                 for (uint32_t yy = iy << sh; yy < (iy + 1) << sh; yy++)
                     for (uint32_t xx = ix << sh; xx < (ix + 1) << sh; xx++) {

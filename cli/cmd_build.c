@@ -180,7 +180,7 @@ static double surface_voxels(const oct_tree_t *t)
 {
     double v = 0;
     for (uint32_t i = 0; i < t->n_leaves; i++)
-        v += ldexp(1.0, 3 * (t->depth - t->leaves[i].depth));
+        v += ldexp(1.0, 3 * (t->depth - oct_leaf_depth(&t->leaves[i])));
     return v;
 }
 

@@ -38,7 +38,7 @@ static int info_ivo(const char *path)
     printf("leaves:   %u\n", t->n_leaves);
     uint64_t by_depth[OCT_MAX_DEPTH + 1] = {0};
     for (uint32_t i = 0; i < t->n_leaves; i++)
-        by_depth[t->leaves[i].depth]++;
+        by_depth[oct_leaf_depth(&t->leaves[i])]++;
     printf("leaves by depth:");
     for (int d = 0; d <= t->depth; d++)
         if (by_depth[d])

@@ -92,10 +92,11 @@ struct Formatter {
         const int D = t->depth;
         for (uint32_t i = first; i < last; i++) {
             const oct_leaf_t &l = t->leaves[i];
+            const int depth = oct_leaf_depth(&l);
             uint32_t ix, iy, iz;
-            oct_unmorton(l.code, l.depth, &ix, &iy, &iz);
+            oct_unmorton(oct_leaf_code(&l), depth, &ix, &iy, &iz);
             if (!axes.empty()) {
-                const int s = D - l.depth;
+                const int s = D - depth;
                 p = axes[0].put(p, (size_t)ix << s);
                 p = axes[0].put(p, ((size_t)ix + 1) << s);
                 p = axes[1].put(p, (size_t)iy << s);
@@ -103,14 +104,14 @@ struct Formatter {
                 p = axes[2].put(p, (size_t)iz << s);
                 p = axes[2].put(p, ((size_t)iz + 1) << s);
             } else {
-                iv_box_t b = oct_cell_box(t->box, l.depth, ix, iy, iz);
+                iv_box_t b = oct_cell_box(t->box, depth, ix, iy, iz);
                 const double v[6] = {b.x.lo, b.x.hi, b.y.lo, b.y.hi, b.z.lo, b.z.hi};
                 for (double x : v) {
                     p = put_double(p, x);
                     *p++ = ',';
                 }
             }
-            p = put_int(p, l.depth);
+            p = put_int(p, depth);
             *p++ = ',';
             p = put_double(p, l.f_lo);
             *p++ = ',';

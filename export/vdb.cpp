@@ -96,11 +96,12 @@ FloatGrid::Ptr surface_grid(const oct_tree_t *t, const Frame &fr)
     for (uint32_t i = 0; i < t->n_leaves; i++) {
         const oct_leaf_t &l = t->leaves[i];
         uint32_t ix, iy, iz;
-        oct_unmorton(l.code, l.depth, &ix, &iy, &iz);
-        if (l.depth == fr.D)
-            acc.setValueOn(Coord((int32_t)ix, (int32_t)iy, (int32_t)iz), (float)l.depth);
+        int depth = oct_leaf_depth(&l);
+        oct_unmorton(oct_leaf_code(&l), depth, &ix, &iy, &iz);
+        if (depth == fr.D)
+            acc.setValueOn(Coord((int32_t)ix, (int32_t)iy, (int32_t)iz), (float)depth);
         else  // a tile where aligned to a node, voxels elsewhere
-            tree.fill(cell_voxels(fr.D, l.depth, ix, iy, iz), (float)l.depth, true);
+            tree.fill(cell_voxels(fr.D, depth, ix, iy, iz), (float)depth, true);
     }
     return g;
 }

@@ -203,8 +203,9 @@ inline Corner leaf_corner(const oct_tree_t *tree, size_t i, int c)
 {
     const oct_leaf_t &l = tree->leaves[i];
     uint32_t ix, iy, iz;
-    oct_unmorton(l.code, l.depth, &ix, &iy, &iz);
-    uint32_t s = 1u << (tree->depth - l.depth);
+    int depth = oct_leaf_depth(&l);
+    oct_unmorton(oct_leaf_code(&l), depth, &ix, &iy, &iz);
+    uint32_t s = 1u << (tree->depth - depth);
     return {(ix + (c & 1)) * s, (iy + (c >> 1 & 1)) * s, (iz + (c >> 2 & 1)) * s};
 }
 
@@ -318,7 +319,7 @@ void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *
         a->SetNumberOfTuples((vtkIdType)n);
     for (uint32_t i = 0; i < n; i++) {
         const oct_leaf_t &l = tree->leaves[i];
-        depth->SetValue(i, l.depth);
+        depth->SetValue(i, oct_leaf_depth(&l));
         f_lo->SetValue(i, l.f_lo);
         f_hi->SetValue(i, l.f_hi);
         error_bound->SetValue(i, oct_leaf_error_bound(tree, i));

@@ -53,11 +53,31 @@ void oct_unmorton(uint64_t code, int depth, uint32_t *ix, uint32_t *iy, uint32_t
     *ix = x, *iy = y, *iz = z;
 }
 
+/* the float nearest x, moved outward past x when rounding went inward */
+static float float_down(double x)
+{
+    float f = (float)x;
+    return (double)f > x ? nextafterf(f, -INFINITY) : f;
+}
+
+static float float_up(double x)
+{
+    float f = (float)x;
+    return (double)f < x ? nextafterf(f, INFINITY) : f;
+}
+
+oct_leaf_t oct_leaf_make(uint64_t code, int depth, double f_lo, double f_hi)
+{
+    oct_leaf_t l = {(uint64_t)1 << (3 * depth) | code, float_down(f_lo), float_up(f_hi)};
+    return l;
+}
+
 iv_box_t oct_leaf_box(const oct_tree_t *tree, const oct_leaf_t *leaf)
 {
     uint32_t ix, iy, iz;
-    oct_unmorton(leaf->code, leaf->depth, &ix, &iy, &iz);
-    return oct_cell_box(tree->box, leaf->depth, ix, iy, iz);
+    int depth = oct_leaf_depth(leaf);
+    oct_unmorton(oct_leaf_code(leaf), depth, &ix, &iy, &iz);
+    return oct_cell_box(tree->box, depth, ix, iy, iz);
 }
 
 int oct_leaf_has_slab(const oct_tree_t *tree, uint32_t i)

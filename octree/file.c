@@ -154,19 +154,22 @@ int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
     /* 25 bytes a leaf in the file, 32 in memory (alignment): repacked */
     for (uint32_t i = 0; i < tree->n_leaves; i++) {
         const oct_leaf_t *l = &tree->leaves[i];
+        unsigned char depth = (unsigned char)oct_leaf_depth(l);
+        uint64_t code = oct_leaf_code(l);
+        double f_lo = l->f_lo, f_hi = l->f_hi;
         if (HOST_LITTLE_ENDIAN && b.n + 25 <= WBUF_SIZE) {
             unsigned char *q = b.p + b.n;
-            memcpy(q, &l->code, 8);
-            memcpy(q + 8, &l->f_lo, 8);
-            memcpy(q + 16, &l->f_hi, 8);
-            q[24] = l->depth;
+            memcpy(q, &code, 8);
+            memcpy(q + 8, &f_lo, 8);
+            memcpy(q + 16, &f_hi, 8);
+            q[24] = depth;
             b.n += 25;
             continue;
         }
-        put_u64(&b, l->code);
-        put_f64(&b, l->f_lo);
-        put_f64(&b, l->f_hi);
-        put(&b, &l->depth, 1);
+        put_u64(&b, code);
+        put_f64(&b, f_lo);
+        put_f64(&b, f_hi);
+        put(&b, &depth, 1);
     }
     if (tree->slabs && HOST_LITTLE_ENDIAN && sizeof(oct_slab_t) == 48) {
         put(&b, tree->slabs, (size_t)tree->n_leaves * sizeof *tree->slabs);
@@ -315,7 +318,7 @@ static const char *check_structure(const oct_tree_t *t)
         case OCT_LEAF:
             if (val != next_leaf || val >= t->n_leaves)
                 why = "leaves out of order";
-            else if (t->leaves[val].depth != depth || t->leaves[val].code != code)
+            else if (t->leaves[val].key != ((uint64_t)1 << (3 * depth) | code))
                 why = "leaf code does not match its place";
             next_leaf++;
             break;
@@ -445,12 +448,15 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
     for (uint32_t i = 0; i < t->n_nodes; i++)
         t->nodes[i] = get_u32(&r);
     for (uint32_t i = 0; i < t->n_leaves; i++) {
-        oct_leaf_t *l = &t->leaves[i];
-        l->code = get_u64(&r);
-        l->f_lo = get_f64(&r);
-        l->f_hi = get_f64(&r);
+        uint64_t code = get_u64(&r);
+        double f_lo = get_f64(&r), f_hi = get_f64(&r);
         const unsigned char *d = take(&r, 1);
-        l->depth = d ? *d : 0;
+        /* a depth or code that does not fit is caught by the structure check
+         * below (the leaf must be at the place its code names) */
+        int depth = d && *d <= OCT_MAX_DEPTH ? *d : 0;
+        t->leaves[i] = oct_leaf_make(code & (((uint64_t)1 << (3 * depth)) - 1), depth, f_lo, f_hi);
+        if (d && (*d > OCT_MAX_DEPTH || code >> (3 * depth)))
+            t->leaves[i].key = 0; /* matches no place: the check refuses it */
     }
     if (has_slabs) {
         t->slabs = malloc(((size_t)t->n_leaves + 1) * sizeof *t->slabs);

@@ -56,13 +56,38 @@ typedef enum { OCT_INSIDE = 0, OCT_OUTSIDE = 1, OCT_UNDEFINED = 2 } oct_class_t;
 #define OCT_NODE_VALUE(n) ((n) & 0x3fffffffu)
 #define OCT_NODE(kind, value) (((uint32_t)(kind) << 30) | (uint32_t)(value))
 
-/* A surface leaf: 32 bytes. */
+/* A surface leaf: 16 bytes.  key holds the depth d and the Morton code at
+ * that depth (bits (z y x) per level, root first) as 1 << 3d | code: the
+ * highest set bit says the depth (3d + 1 <= 64 bits for d <= 21); read them
+ * with oct_leaf_depth and oct_leaf_code.  [f_lo, f_hi] encloses f over the
+ * leaf: the build's enclosure rounded outward to float (floats keep the leaf
+ * small; the leaf's own bound is a few ulps of a float away from the double
+ * one, and every consumer only reads it). */
 typedef struct oct_leaf {
-    uint64_t code;      /* Morton code at the leaf's depth: bits (z y x) per level, root first */
-    double f_lo, f_hi;  /* enclosure of f over the leaf */
-    uint8_t depth;
-    uint8_t pad[7];
+    uint64_t key;
+    float f_lo, f_hi;
 } oct_leaf_t;
+
+static inline int oct_leaf_depth(const oct_leaf_t *l)
+{
+#if defined(__GNUC__)
+    return l->key ? (63 - __builtin_clzll(l->key)) / 3 : 0;
+#else
+    int d = 0;
+    while (d < 21 && l->key >> (3 * d + 3))
+        d++;
+    return d;
+#endif
+}
+
+static inline uint64_t oct_leaf_code(const oct_leaf_t *l)
+{
+    return l->key ^ (uint64_t)1 << (3 * oct_leaf_depth(l));
+}
+
+/* The leaf of Morton code `code` at `depth` (0..21) with enclosure F (rounded
+ * outward to floats; NaN stays NaN). */
+oct_leaf_t oct_leaf_make(uint64_t code, int depth, double f_lo, double f_hi);
 
 /* The ILIE slab of a surface leaf (builds with the ilie test): 48 bytes, in an
  * array parallel to the leaves. */

@@ -70,11 +70,7 @@ long pool_leaf(build_t *b, pool_t *p, cell_t c, const decision_t *d)
         p->slabs = sl;
         sl[p->nl] = d->slab;
     }
-    oct_leaf_t *l = &p->leaves[p->nl];
-    memset(l, 0, sizeof *l);
-    l->code = c.code;
-    l->f_lo = F.lo, l->f_hi = F.hi;
-    l->depth = (uint8_t)c.depth;
+    p->leaves[p->nl] = oct_leaf_make(c.code, c.depth, F.lo, F.hi);
     return (long)p->nl++;
 }
 

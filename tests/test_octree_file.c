@@ -240,8 +240,8 @@ static int try_load(const unsigned char *p, size_t n, char *why, size_t why_n)
             assert_true(val < t->n_leaves);
             assert_int_equal(val, next_leaf);
             next_leaf++;
-            assert_int_equal(t->leaves[val].depth, d);
-            assert_true(t->leaves[val].code == code);
+            assert_int_equal(oct_leaf_depth(&t->leaves[val]), d);
+            assert_true(oct_leaf_code(&t->leaves[val]) == code);
             break;
         case OCT_EMPTY:
             assert_true(val <= OCT_UNDEFINED);
@@ -330,10 +330,10 @@ static void same_tree(const oct_tree_t *a, const oct_tree_t *b)
     assert_memory_equal(a->nodes, b->nodes, a->n_nodes * sizeof *a->nodes);
     assert_int_equal(a->n_leaves, b->n_leaves);
     for (uint32_t i = 0; i < a->n_leaves; i++) {
-        assert_true(a->leaves[i].code == b->leaves[i].code);
-        assert_memory_equal(&a->leaves[i].f_lo, &b->leaves[i].f_lo, sizeof(double));
-        assert_memory_equal(&a->leaves[i].f_hi, &b->leaves[i].f_hi, sizeof(double));
-        assert_int_equal(a->leaves[i].depth, b->leaves[i].depth);
+        assert_true(a->leaves[i].key == b->leaves[i].key);
+        assert_memory_equal(&a->leaves[i].f_lo, &b->leaves[i].f_lo, sizeof(float));
+        assert_memory_equal(&a->leaves[i].f_hi, &b->leaves[i].f_hi, sizeof(float));
+        assert_int_equal(oct_leaf_depth(&a->leaves[i]), oct_leaf_depth(&b->leaves[i]));
     }
 }
 

@@ -216,7 +216,7 @@ static void run(const char *scene, int depth, double refine, int require_early)
             assert_true(tree->stats.decided_refine > 0);
         /* every early leaf's bound is below the tolerance */
         for (uint32_t i = 0; i < tree->n_leaves; i++)
-            if (tree->leaves[i].depth < depth)
+            if (oct_leaf_depth(&tree->leaves[i]) < depth)
                 assert_true(oct_leaf_error_bound(tree, i) < refine);
     }
     oct_free(tree);

@@ -85,7 +85,7 @@ static void check_depth(const scene_t *s, int depth, unsigned tests)
     double worst = 0; /* largest distance from a leaf box to the sphere */
     for (uint32_t l = 0; l < t->n_leaves; l++) {
         const oct_leaf_t *lf = &t->leaves[l];
-        assert_int_equal(lf->depth, depth); /* no refine: leaves only at the max depth */
+        assert_int_equal(oct_leaf_depth(lf), depth); /* no refine: leaves only at the max depth */
         uint32_t ix, iy, iz;
         oct_unmorton(lf->code, lf->depth, &ix, &iy, &iz);
         size_t at = ((size_t)iz * n + iy) * n + ix;

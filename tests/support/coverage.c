@@ -410,8 +410,8 @@ static empty_cell_t *walk_tree(const cov_grid_t *g, const oct_tree_t *t, size_t 
             break;
         case OCT_LEAF:
             assert_true(val < t->n_leaves);
-            assert_true(t->leaves[val].depth == d);
-            assert_true(t->leaves[val].code == oct_morton(ix, iy, iz, d));
+            assert_true(oct_leaf_depth(&t->leaves[val]) == d);
+            assert_true(oct_leaf_code(&t->leaves[val]) == oct_morton(ix, iy, iz, d));
             leaves_seen++;
             break;
         case OCT_EMPTY: {

@@ -87,7 +87,7 @@ static void check_depth(const scene_t *s, int depth, unsigned tests)
         const oct_leaf_t *lf = &t->leaves[l];
         assert_int_equal(oct_leaf_depth(lf), depth); /* no refine: leaves only at the max depth */
         uint32_t ix, iy, iz;
-        oct_unmorton(lf->code, lf->depth, &ix, &iy, &iz);
+        oct_unmorton(oct_leaf_code(lf), oct_leaf_depth(lf), &ix, &iy, &iz);
         size_t at = ((size_t)iz * n + iy) * n + ix;
         assert_int_equal(leaf[at], 0); /* no two leaves on one cell */
         leaf[at] = 1;

@@ -163,10 +163,10 @@ void cov_cover_init(cov_cover_t *cv, const oct_tree_t *t)
     assert_non_null(pair);
     for (uint32_t l = 0; l < t->n_leaves; l++) {
         const oct_leaf_t *lf = &t->leaves[l];
-        assert_true(lf->depth <= t->depth);
-        int sh = 3 * (t->depth - lf->depth);
-        pair[2 * l] = lf->code << sh;
-        pair[2 * l + 1] = (lf->code + 1) << sh;
+        assert_true(oct_leaf_depth(lf) <= t->depth);
+        int sh = 3 * (t->depth - oct_leaf_depth(lf));
+        pair[2 * l] = oct_leaf_code(lf) << sh;
+        pair[2 * l + 1] = (oct_leaf_code(lf) + 1) << sh;
     }
     qsort(pair, cv->n, 2 * sizeof *pair, cmp_u64);
     cv->lo = malloc((cv->n ? cv->n : 1) * sizeof *cv->lo);

@@ -2,8 +2,11 @@
 // recognising files for `ivoct info`.  Includes neither VTK nor OpenVDB.
 #include <cerrno>
 #include <csignal>
+#include <fcntl.h>
 #include <cstring>
 #include <strings.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -151,9 +154,39 @@ Format sniff(const char *path)
 // overflow in OpenVDB's Blosc decoding (tests/fuzz/corpus/vtk, vdb).  So `info` reads
 // an export in a child process, which sends back a status byte and the summary (or the
 // error) through a pipe; a child that dies is a file the library could not read.
-// The sanitizer's death callback (libFuzzer's, in the fuzz targets) is cleared in the
-// child: its reports still print, but a crash there is not the parent's.
+// The child's stderr is /dev/null, and the sanitizer's death callback (libFuzzer's, in
+// the fuzz targets) is cleared there: a crash in the child is not the parent's.
 extern "C" void __sanitizer_set_death_callback(void (*)(void)) __attribute__((weak));
+
+// The readers also believe the sizes a file states: OpenVDB read a 10 KB file whose
+// metadata claims gigabytes into 5 GB of memory.  The child may use 256 MiB plus 64 times
+// the file's size beyond what it holds at the fork (RLIMIT_DATA, counted from VmData so
+// that the sanitizers' reserved shadow memory does not count); past that an allocation
+// fails, which the readers report (bad_alloc) or die of.
+void limit_child_memory(const char *path)
+{
+    struct stat st;
+    FILE *f = std::fopen("/proc/self/status", "r");
+    if (!f || stat(path, &st))
+        return (void)(f && std::fclose(f));
+    unsigned long long kb = 0;
+    char line[256];
+    while (std::fgets(line, sizeof line, f))
+        if (std::sscanf(line, "VmData: %llu kB", &kb) == 1)
+            break;
+    std::fclose(f);
+    if (!kb)
+        return;
+    rlim_t size = st.st_size > 0 ? (rlim_t)st.st_size : 0;
+    rlim_t budget = ((rlim_t)1 << 28) + (size < ((rlim_t)1 << 40) ? 64 * size : ((rlim_t)1 << 46));
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_DATA, &rl) == 0) {
+        rlim_t want = (rlim_t)kb * 1024 + budget;
+        if (rl.rlim_max == RLIM_INFINITY || want < rl.rlim_max)
+            rl.rlim_cur = want;
+        setrlimit(RLIMIT_DATA, &rl);
+    }
+}
 
 int info_in_child(Format fmt, const char *path, FILE *out, ivoct_error_t *err)
 {
@@ -177,6 +210,14 @@ int info_in_child(Format fmt, const char *path, FILE *out, ivoct_error_t *err)
             __sanitizer_set_death_callback(nullptr);
         for (int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL})
             std::signal(sig, SIG_DFL);
+        limit_child_memory(path);
+        // what a dying library prints (glibc's "free(): invalid pointer", a sanitizer's
+        // report) is not ivoct's message: the parent reports the file
+        int null_fd = open("/dev/null", O_WRONLY);
+        if (null_fd >= 0) {
+            dup2(null_fd, STDERR_FILENO);
+            close(null_fd);
+        }
         char *text = nullptr;
         size_t len = 0;
         FILE *mem = open_memstream(&text, &len);

@@ -210,6 +210,13 @@ int info_in_child(Format fmt, const char *path, FILE *out, ivoct_error_t *err)
             __sanitizer_set_death_callback(nullptr);
         for (int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL})
             std::signal(sig, SIG_DFL);
+        // the CLI blocks SIGINT, SIGTERM and SIGHUP for its signal thread, which the
+        // child does not have: there they take their action (a Ctrl-C ends both)
+        sigset_t stop;
+        sigemptyset(&stop);
+        for (int sig : {SIGINT, SIGTERM, SIGHUP})
+            sigaddset(&stop, sig);
+        sigprocmask(SIG_UNBLOCK, &stop, nullptr);
         limit_child_memory(path);
         // what a dying library prints (glibc's "free(): invalid pointer", a sanitizer's
         // report) is not ivoct's message: the parent reports the file

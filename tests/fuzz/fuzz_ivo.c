@@ -35,10 +35,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (oct_load(path, &tree, &src, &err) == 0) {
         if (!tree || !src.f || !src.name)
             abort();
-        /* what ivoct info reads of a loaded tree */
-        for (uint32_t i = 0; i < tree->n_leaves; i++)
-            if (tree->leaves[i].depth > tree->depth)
-                abort();
         oct_free(tree);
         oct_source_free(&src);
     } else if (!err.msg[0]) {

@@ -90,6 +90,12 @@ if run 0 "sphere depth 7" -- build "$SCENES/sphere.ini" --depth 7 --quiet \
         run 2 "info on a truncated .$ext" -- info "$TMP/trunc.$ext" && one_line_error "info truncated .$ext" "trunc.$ext"
     done
 fi
+# files that crash VTK's or OpenVDB's reader, or make it allocate gigabytes (found by
+# tests/fuzz/): exit 2, one line
+for f in "$SRC"/tests/fuzz/corpus/vtk/[ct]* "$SRC"/tests/fuzz/corpus/vdb/[ct]*; do
+    [ -f "$f" ] || continue
+    run 2 "info on ${f#"$SRC"/}" -- info "$f" && one_line_error "info on ${f#"$SRC"/}" "cannot read"
+done
 
 # ---- coarse leaves (ilie + refine) with slabs: tiles in the vdb, normals in the vtu ---------
 R=$TMP/refine

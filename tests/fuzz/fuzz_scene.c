@@ -1,0 +1,28 @@
+/* The scene loader (scene/, and through it the expression compiler, octree/'s
+ * and ray/'s value checks): any file is loaded or refused with an error
+ * naming what was expected, never a crash.  The input is written to a
+ * temporary file (scene_load takes a path; scene files include nothing). */
+#define _DEFAULT_SOURCE
+#include <limits.h>
+
+#include "fuzz_input.h"
+
+#include "scene/scene.h"
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    char path[PATH_MAX];
+    fuzz_file(data, size, ".ini", path, sizeof path);
+    scene_t s;
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    if (scene_load(path, &s, &err) == 0) {
+        if (!s.tape || !s.source.f)
+            abort();
+        scene_free(&s);
+    } else if (!err.msg[0]) {
+        abort();
+    }
+    unlink(path);
+    return 0;
+}

@@ -163,6 +163,9 @@ extern "C" void __sanitizer_set_death_callback(void (*)(void)) __attribute__((we
 // the file's size beyond what it holds at the fork (RLIMIT_DATA, counted from VmData so
 // that the sanitizers' reserved shadow memory does not count); past that an allocation
 // fails, which the readers report (bad_alloc) or die of.
+// CPU seconds the child may take (the depth-9 exports of the tests read in about 1 s)
+constexpr rlim_t CHILD_CPU_SECONDS = 120;
+
 void limit_child_memory(const char *path)
 {
     struct stat st;
@@ -218,6 +221,10 @@ int info_in_child(Format fmt, const char *path, FILE *out, ivoct_error_t *err)
             sigaddset(&stop, sig);
         sigprocmask(SIG_UNBLOCK, &stop, nullptr);
         limit_child_memory(path);
+        // and time: a reader caught in a loop by a crafted file is ended by SIGXCPU
+        // (then reported like a crash); real exports read in seconds
+        struct rlimit cpu = {CHILD_CPU_SECONDS, CHILD_CPU_SECONDS + 1};
+        setrlimit(RLIMIT_CPU, &cpu);
         // what a dying library prints (glibc's "free(): invalid pointer", a sanitizer's
         // report) is not ivoct's message: the parent reports the file
         int null_fd = open("/dev/null", O_WRONLY);

@@ -165,9 +165,7 @@ static int write_save(const scene_t *s, const oct_tree_t *t, io_group_t *g, cons
 #define MEM_HTG_PER_NODE 300.0    /* measured 183 .. 197 bytes per node */
 #define MEM_VDB_PER_VOXEL 400.0   /* measured 131 .. 246 bytes per voxel of the max depth */
 #define MEM_VDB_FIXED (8.0 * 1024 * 1024)
-/* export/cells.cpp: per formatting thread a ring of 2 blocks of 16384 rows of
- * at most ~350 characters (computed, not measured) */
-#define MEM_CELLS_PER_THREAD (12.0 * 1024 * 1024)
+
 
 static double tree_bytes(const oct_tree_t *t)
 {
@@ -184,6 +182,17 @@ static double surface_voxels(const oct_tree_t *t)
     return v;
 }
 
+/* The threads that format --cells: the build's, or fewer when their buffers
+ * would not fit the budget beside the tree (one thread's are the CSV's
+ * minimum, which check_export_memory checks). */
+static int cells_threads(const oct_tree_t *t, int threads, size_t budget)
+{
+    int n = threads > 0 ? threads : t->stats.threads;
+    while (budget && n > 1 && tree_bytes(t) + (double)exp_cells_memory(t, n) > (double)budget)
+        n--;
+    return n;
+}
+
 static int check_export_memory(const oct_tree_t *t, const char *cells, const char *save,
                                const exports_t *ex, size_t budget, ivoct_error_t *err)
 {
@@ -194,7 +203,7 @@ static int check_export_memory(const oct_tree_t *t, const char *cells, const cha
     } need[] = {
         /* oct_save builds the file in a buffer that doubles as it grows */
         {"--save", save, 2.0 * tree_bytes(t) + 65536.0},
-        {"--cells", cells, MEM_CELLS_PER_THREAD * (t->stats.threads > 0 ? t->stats.threads : 1)},
+        {"--cells", cells, (double)exp_cells_memory(t, 1)},
         {"--vtu", ex->vtu, MEM_VTU_PER_LEAF * t->n_leaves},
         {"--htg", ex->htg, MEM_HTG_PER_NODE * t->n_nodes},
         {"--vdb", ex->vdb, MEM_VDB_PER_VOXEL * voxels + MEM_VDB_FIXED},
@@ -340,7 +349,8 @@ int cmd_build(int argc, char **argv)
         rc = EXIT_RUNTIME;
     if (rc == EXIT_OK && cells)
         cli_test_pause("cells");
-    if (rc == EXIT_OK && cells && write_cells(tree, &g, cells, (int)threads, &err))
+    if (rc == EXIT_OK && cells &&
+        write_cells(tree, &g, cells, cells_threads(tree, (int)threads, max_memory), &err))
         rc = EXIT_RUNTIME;
     if (rc == EXIT_OK && save && write_save(&s, tree, &g, save, &err))
         rc = EXIT_RUNTIME;

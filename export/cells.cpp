@@ -32,8 +32,8 @@ const char HEADER[] = "x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi,nx,ny,nz,d_lo,d_hi,erro
 constexpr size_t NUM_MAX = 32;
 // 14 numbers, a depth of 2 digits, 14 commas and the newline
 constexpr size_t ROW_MAX = 14 * NUM_MAX + 2 + 15;
-// leaves per block: ~2 MB of text, a few MB of buffer
-constexpr size_t BLOCK = 16384;
+// leaves per block: ~1 MB of text per write, 1.9 MB of buffer per slot
+constexpr size_t BLOCK = 4096;
 // tables of the bounds up to this depth (3 x 2^16 numbers: ~10 ms)
 constexpr int TABLE_DEPTH = 16;
 
@@ -78,10 +78,15 @@ struct Formatter {
     const oct_tree_t *t;
     std::vector<AxisTable> axes;  // empty above TABLE_DEPTH
 
+    // a table when it is cheaper than formatting 6 numbers a leaf
+    static bool tabled(const oct_tree_t *t)
+    {
+        return t->depth <= TABLE_DEPTH && ((size_t)1 << t->depth) + 1 <= 2 * (size_t)t->n_leaves;
+    }
+
     explicit Formatter(const oct_tree_t *tree) : t(tree)
     {
-        // a table when it is cheaper than formatting 6 numbers a leaf
-        if (t->depth <= TABLE_DEPTH && ((size_t)1 << t->depth) + 1 <= 2 * (size_t)t->n_leaves)
+        if (tabled(t))
             for (int a = 0; a < 3; a++)
                 axes.emplace_back(t->box[2 * a], t->box[2 * a + 1], t->depth);
     }
@@ -142,13 +147,19 @@ int thread_count(int threads, size_t blocks)
     return (int)std::min<size_t>((size_t)threads, blocks);
 }
 
+// slots of the ring: two per worker, no more than there are blocks
+size_t ring_slots(size_t n_blocks, int workers)
+{
+    return std::max<size_t>(1, std::min<size_t>(2 * (size_t)workers, n_blocks));
+}
+
 // Blocks formatted by `workers` threads into a ring of slots and written in
 // order by the calling thread.  A worker formats block b into slot b % ring
 // once block b - ring has been written.
 class Pipeline {
 public:
     Pipeline(const Formatter &fmt, Output &out, size_t n_blocks, int workers)
-        : fmt_(fmt), out_(out), n_blocks_(n_blocks), ring_(2 * (size_t)workers),
+        : fmt_(fmt), out_(out), n_blocks_(n_blocks), ring_(ring_slots(n_blocks, workers)),
           slots_(ring_), ready_(ring_, SIZE_MAX), length_(ring_, 0)
     {
         for (auto &s : slots_)
@@ -245,6 +256,17 @@ private:
 };
 
 }  // namespace
+
+size_t cells_memory(const oct_tree_t *tree, int threads)
+{
+    const size_t n = tree->n_leaves, n_blocks = (n + BLOCK - 1) / BLOCK;
+    const int workers = thread_count(threads, n_blocks);
+    const size_t entries = ((size_t)1 << std::min(tree->depth, TABLE_DEPTH)) + 1;
+    size_t tables = Formatter::tabled(tree) ? 3 * (entries * (NUM_MAX + 1) + (entries + 1) * 4) : 0;
+    if (workers <= 1)
+        return tables + std::min<size_t>(n, BLOCK) * ROW_MAX;
+    return tables + ring_slots(n_blocks, workers) * BLOCK * ROW_MAX;
+}
 
 void write_cells(const oct_tree_t *tree, const char *path, int threads)
 {

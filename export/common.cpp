@@ -297,6 +297,11 @@ int exp_cells(const oct_tree_t *tree, const char *path, int threads, ivoct_error
     return guard(err, [&] { write_cells(tree, path, threads); });
 }
 
+size_t exp_cells_memory(const oct_tree_t *tree, int threads)
+{
+    return cells_memory(tree, threads);
+}
+
 int exp_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *path,
             ivoct_error_t *err)
 {

@@ -45,6 +45,10 @@ extern "C" {
  * doubles).  Rows are formatted by `threads` threads (<= 0: one per core);
  * the file is the same for any count. */
 int exp_cells(const oct_tree_t *tree, const char *path, int threads, ivoct_error_t *err);
+/* The bytes of buffers exp_cells(tree, ..., threads, ...) allocates (its
+ * threads' ring of text blocks and the bounds tables): the CLI's memory
+ * budget picks the thread count from it. */
+size_t exp_cells_memory(const oct_tree_t *tree, int threads);
 
 /* .vtu: an UnstructuredGrid of the surface leaves as VTK_VOXEL cells (points
  * shared between neighbours, coordinates the exact doubles of oct_coord), in

@@ -76,6 +76,7 @@ std::vector<MetaItem> meta_strings(const oct_source_t *src);
 
 // cells.cpp
 void write_cells(const oct_tree_t *tree, const char *path, int threads);
+size_t cells_memory(const oct_tree_t *tree, int threads);
 
 // vdb.cpp
 void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,

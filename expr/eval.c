@@ -175,7 +175,14 @@ int tape_simd_select(const char *name, ivoct_error_t *err)
 
 /* ---- moving batches in and out ---------------------------------------------------- */
 
-static size_t padded(size_t m) { return (m + KERNEL_ALIGN - 1) / KERNEL_ALIGN * KERNEL_ALIGN; }
+/* The lanes a pass over m boxes runs: m rounded up to KERNEL_ALIGN, so that
+ * the lane loops have no scalar remainder; but a batch shorter than that (a
+ * ray's search asks for one or two segments at a time) runs its m lanes
+ * alone: padding it would multiply its cost. */
+static size_t padded(size_t m)
+{
+    return m < KERNEL_ALIGN ? m : (m + KERNEL_ALIGN - 1) / KERNEL_ALIGN * KERNEL_ALIGN;
+}
 
 /* The input arrays of a pass over m boxes, np >= m lanes. */
 static void load_boxes(tape_ws_t *ws, const iv_box_t *box, size_t m, size_t np)

@@ -13,8 +13,9 @@
  * TAPE_BATCH doubles, one entry per lane: the point pass has one (the value),
  * the interval pass two (lo, hi), the gradient pass eight (lo, hi of the
  * value and of each partial).  Lane counts given to a kernel are multiples
- * of KERNEL_ALIGN (eval.c pads a short batch with copies of its first lane),
- * so the lane loops have no scalar remainder. */
+ * of KERNEL_ALIGN (eval.c pads a batch with copies of its first lane), so the
+ * lane loops have no scalar remainder, except for batches of fewer lanes,
+ * which run as they are. */
 #ifndef IVOCT_EVAL_INTERNAL_H
 #define IVOCT_EVAL_INTERNAL_H
 

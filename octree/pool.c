@@ -104,13 +104,17 @@ void pool_shrink(build_t *b, pool_t *p)
     }
 }
 
-/* The leaves of the tree grow pool by pool (exactly, so that the assembly's
- * peak stays near one copy of the tree); room for need leaves.  0 or -1. */
-static int grow_exact(build_t *b, oct_leaf_t **leaves, oct_slab_t **slabs, size_t *cap,
-                      size_t need)
+/* The leaves of the tree grow pool by pool, by a quarter at least (so that
+ * the assembly's peak stays near one copy of the tree, and the copies of a
+ * realloc that cannot remap add up to a few times the array); room for need
+ * leaves, at most max.  0 or -1. */
+static int grow_leaves(build_t *b, oct_leaf_t **leaves, oct_slab_t **slabs, size_t *cap,
+                       size_t need, size_t max)
 {
     if (need <= *cap)
         return 0;
+    size_t more = *cap + *cap / 4;
+    need = need > more ? need : more < max ? more : max;
     oct_leaf_t *l = realloc(*leaves, need * sizeof *l);
     if (!l)
         return -1;
@@ -185,7 +189,9 @@ int pool_assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct
     oct_leaf_t *leaves = NULL;
     oct_slab_t *slabs = NULL;
     size_t capl = 0, done = 0; /* pools before `done` are freed */
-    int failed = grow_exact(b, &leaves, with_slabs ? &slabs : NULL, &capl, top->nl ? top->nl : 1);
+    size_t ml = nl ? nl : 1;
+    int failed =
+        grow_leaves(b, &leaves, with_slabs ? &slabs : NULL, &capl, top->nl ? top->nl : 1, ml);
     uint32_t stack[8 * (OCT_MAX_DEPTH + 2)];
     int sp = 0;
     uint32_t next_leaf = 0;
@@ -208,8 +214,8 @@ int pool_assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct
                 for (; done < k; done++)
                     pool_free(b, &front[done].pool);
                 const pool_t *p = &front[k].pool;
-                if (grow_exact(b, &leaves, with_slabs ? &slabs : NULL, &capl,
-                               next_leaf + p->nl + top->nl)) {
+                if (grow_leaves(b, &leaves, with_slabs ? &slabs : NULL, &capl,
+                                next_leaf + p->nl + top->nl, ml)) {
                     failed = 1;
                     break;
                 }

@@ -235,16 +235,15 @@ static void pass_choices(const tape_t *t, const tape_ws_t *ws, size_t m, uint8_t
         uint8_t *out = choices + i;
         switch ((tape_op_t)c->op) {
         case TAPE_MIN:
-            for (size_t k = 0; k < m; k++)
-                out[k * t->n] = ah[k] <= bl[k]   ? TAPE_CHOICE_A
-                                : bh[k] <= al[k] ? TAPE_CHOICE_B
-                                                 : TAPE_CHOICE_BOTH;
-            break;
         case TAPE_MAX:
-            for (size_t k = 0; k < m; k++)
-                out[k * t->n] = al[k] >= bh[k]   ? TAPE_CHOICE_A
-                                : bl[k] >= ah[k] ? TAPE_CHOICE_B
-                                                 : TAPE_CHOICE_BOTH;
+            /* the branch certainly selected: the gradient rules' fm_pick_* */
+            for (size_t k = 0; k < m; k++) {
+                iv_t A = iv_make(al[k], ah[k]), Bv = iv_make(bl[k], bh[k]);
+                int pick = c->op == TAPE_MIN ? fm_pick_min(A, Bv) : fm_pick_max(A, Bv);
+                out[k * t->n] = pick < 0   ? TAPE_CHOICE_A
+                                : pick > 0 ? TAPE_CHOICE_B
+                                           : TAPE_CHOICE_BOTH;
+            }
             break;
         case TAPE_ABS:
             for (size_t k = 0; k < m; k++)

@@ -65,8 +65,11 @@ static inline double k_dn0(double x) /* iv_down of a value known to be >= 0 */
 
 /* m^e (m >= 0, e >= 1) rounded down and up for every lane: the binary
  * exponentiation of interval.c (pow_dn, pow_up) with the lanes innermost,
- * the same products in the same order, so the same bounds. */
-static void k_pow_bounds(const double *restrict m, size_t nl, unsigned e, double *restrict dn,
+ * the same products in the same order, so the same bounds.  m is only read
+ * (its first nl lanes); it is not const because gcc 12 takes a const pointer
+ * to a local array written for nl lanes as a read of the whole array
+ * (-Wmaybe-uninitialized), and zeroing the array for it cost every pass. */
+static void k_pow_bounds(double *restrict m, size_t nl, unsigned e, double *restrict dn,
                          double *restrict up)
 {
     double bd[B], bu[B];
@@ -88,40 +91,28 @@ static void k_pow_bounds(const double *restrict m, size_t nl, unsigned e, double
     }
 }
 
-/* iv_powi(a, e) for e >= 3, every lane: odd powers are increasing, even ones
- * monotone in |x| (interval.c, powi_pos). */
+/* iv_powi(a, e) for e >= 3, every lane: odd powers are increasing (the
+ * bounds' magnitudes, each raised in the direction its sign needs), even
+ * ones monotone in |x| (the magnitudes' range); interval.c, powi_pos. */
 static void k_powi_pos(const double *restrict al, const double *restrict ah, size_t nl,
                        unsigned e, double *restrict ol, double *restrict oh)
 {
-    /* zeroed only to spare gcc a false -Wmaybe-uninitialized (nl <= B lanes
-     * are written before they are read) */
-    double ml[B] = {0}, mh[B] = {0}, dl[B], ul[B], dh[B], uh[B];
-    if (e & 1u) {
-        for (size_t k = 0; k < nl; k++)
-            ml[k] = fabs(al[k]), mh[k] = fabs(ah[k]);
-        k_pow_bounds(ml, nl, e, dl, ul);
-        k_pow_bounds(mh, nl, e, dh, uh);
-        for (size_t k = 0; k < nl; k++) {
-            int empty = (al[k] != al[k]) | (ah[k] != ah[k]);
-            double lo = al[k] >= 0.0 ? dl[k] : -ul[k];
-            double hi = ah[k] >= 0.0 ? uh[k] : -dh[k];
-            ol[k] = empty ? NAN : lo;
-            oh[k] = empty ? NAN : hi;
-        }
-        return;
-    }
+    const int odd = e & 1u;
+    double ml[B], mh[B], dl[B], ul[B], dh[B], uh[B];
     for (size_t k = 0; k < nl; k++) {
         int pos = al[k] >= 0.0, neg = ah[k] <= 0.0;
         double top = -al[k] > ah[k] ? -al[k] : ah[k];
-        ml[k] = pos ? al[k] : neg ? -ah[k] : 0.0;
-        mh[k] = pos ? ah[k] : neg ? -al[k] : top;
+        ml[k] = odd ? fabs(al[k]) : pos ? al[k] : neg ? -ah[k] : 0.0;
+        mh[k] = odd ? fabs(ah[k]) : pos ? ah[k] : neg ? -al[k] : top;
     }
     k_pow_bounds(ml, nl, e, dl, ul);
     k_pow_bounds(mh, nl, e, dh, uh);
     for (size_t k = 0; k < nl; k++) {
         int empty = (al[k] != al[k]) | (ah[k] != ah[k]);
-        ol[k] = empty ? NAN : dl[k];
-        oh[k] = empty ? NAN : uh[k];
+        double lo = odd && al[k] < 0.0 ? -ul[k] : dl[k];
+        double hi = odd && ah[k] < 0.0 ? -dh[k] : uh[k];
+        ol[k] = empty ? NAN : lo;
+        oh[k] = empty ? NAN : hi;
     }
 }
 

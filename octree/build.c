@@ -24,35 +24,30 @@
 
 /* ---- workers ------------------------------------------------------------------- */
 
-static size_t chain_scratch_bytes(void)
+/* The chain's scratch: one block of CHAIN_BATCH entries of each array (the
+ * arrays in decreasing alignment order, so each one starts aligned).  Returns
+ * its size in bytes, 0 when out of memory. */
+static size_t chain_scratch_init(chain_scratch_t *c)
 {
-    return CHAIN_BATCH * (2 * sizeof(iv_t) + 2 * sizeof(int) + 2 * sizeof(iv_grad_t) +
-                          2 * sizeof(ilie_t) + sizeof(iv_box_t) + 3 * sizeof(double));
-}
-
-static int chain_scratch_init(chain_scratch_t *c)
-{
-    c->F = malloc(CHAIN_BATCH * sizeof *c->F);
-    c->open = malloc(CHAIN_BATCH * sizeof *c->open);
-    c->thin = malloc(CHAIN_BATCH * sizeof *c->thin);
-    c->grad = malloc(CHAIN_BATCH * sizeof *c->grad);
-    c->ilie = malloc(CHAIN_BATCH * sizeof *c->ilie);
-    c->open_boxes = malloc(CHAIN_BATCH * sizeof *c->open_boxes);
-    c->open_grad = malloc(CHAIN_BATCH * sizeof *c->open_grad);
-    c->open_F = malloc(CHAIN_BATCH * sizeof *c->open_F);
-    c->open_ilie = malloc(CHAIN_BATCH * sizeof *c->open_ilie);
-    c->centre = malloc(CHAIN_BATCH * sizeof *c->centre);
-    return c->F && c->open && c->thin && c->grad && c->ilie && c->open_boxes && c->open_grad &&
-                   c->open_F && c->open_ilie && c->centre
-               ? 0
-               : -1;
-}
-
-static void chain_scratch_free(chain_scratch_t *c)
-{
-    free(c->F), free(c->open), free(c->thin), free(c->grad), free(c->ilie);
-    free(c->open_boxes), free(c->open_grad), free(c->open_F), free(c->open_ilie);
-    free(c->centre);
+    const size_t n = CHAIN_BATCH;
+    size_t bytes = n * (sizeof *c->ilie + sizeof *c->open_ilie + sizeof *c->grad +
+                        sizeof *c->open_grad + sizeof *c->open_boxes + sizeof *c->F +
+                        sizeof *c->open_F + sizeof *c->centre + sizeof *c->open +
+                        sizeof *c->thin);
+    char *p = malloc(bytes);
+    if (!p)
+        return 0;
+    c->ilie = (ilie_t *)p, p += n * sizeof *c->ilie;
+    c->open_ilie = (ilie_t *)p, p += n * sizeof *c->open_ilie;
+    c->grad = (iv_grad_t *)p, p += n * sizeof *c->grad;
+    c->open_grad = (iv_grad_t *)p, p += n * sizeof *c->open_grad;
+    c->open_boxes = (iv_box_t *)p, p += n * sizeof *c->open_boxes;
+    c->F = (iv_t *)p, p += n * sizeof *c->F;
+    c->open_F = (iv_t *)p, p += n * sizeof *c->open_F;
+    c->centre = (double (*)[3])p, p += n * sizeof *c->centre;
+    c->open = (int *)p, p += n * sizeof *c->open;
+    c->thin = (int *)p;
+    return bytes;
 }
 
 static struct wave *wave_new(void);
@@ -68,12 +63,12 @@ static int worker_init(worker_t *w, build_t *b)
     w->choices = b->choices ? malloc(CHAIN_BATCH * (size_t)n) : NULL;
     w->ilie_ws = (b->tests & OCT_TEST_ILIE) ? ilie_ws_new(n) : NULL;
     w->wave = wave_new();
-    if (!w->ws || !w->scratch || !w->wave || chain_scratch_init(&w->chain) ||
-        (b->choices && !w->choices) ||
+    size_t chain_bytes = chain_scratch_init(&w->chain);
+    if (!w->ws || !w->scratch || !w->wave || !chain_bytes || (b->choices && !w->choices) ||
         ((b->tests & OCT_TEST_ILIE) && !w->ilie_ws))
         return -1;
     build_account(b, (ptrdiff_t)((b->choices ? CHAIN_BATCH * (size_t)n : 0) +
-                                 3 * (size_t)n * sizeof *w->scratch + chain_scratch_bytes() +
+                                 3 * (size_t)n * sizeof *w->scratch + chain_bytes +
                                  tape_ws_bytes(n)));
     return 0;
 }
@@ -84,7 +79,7 @@ static void worker_free(worker_t *w)
         wave_free(w->b, w->wave);
     tape_ws_free(w->ws);
     ilie_ws_free(w->ilie_ws);
-    chain_scratch_free(&w->chain);
+    free(w->chain.ilie); /* the chain's scratch block */
     free(w->scratch);
     free(w->choices);
 }
@@ -188,10 +183,10 @@ static int wave_order(build_t *b, wave_t *v, size_t ntapes)
         f[WAVE_KEY(v->cur[i].tape) + 1]++;
     for (size_t k = 1; k < ntapes + 2; k++)
         f[k] += f[k - 1];
-    uint32_t *pos = f; /* f[key] advances to the run's end; rebuilt below */
+    /* f[key] is the start of run key; placing advances it to the run's end */
     for (size_t i = 0; i < v->ncur; i++)
-        o[pos[WAVE_KEY(v->cur[i].tape)]++] = (uint32_t)i;
-    /* now f[key] is the end of run key: shift back to starts */
+        o[f[WAVE_KEY(v->cur[i].tape)]++] = (uint32_t)i;
+    /* shift the ends back to starts */
     for (size_t k = ntapes + 1; k > 0; k--)
         f[k] = f[k - 1];
     f[0] = 0;

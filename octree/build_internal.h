@@ -29,8 +29,6 @@ typedef struct decision {
     int kind;
     oct_class_t cls;    /* EMPTY */
     iv_t F;             /* enclosure of f over the cell */
-    const tape_t *tape; /* the tape it was classified with (chain_prune prunes it) */
-    int single_use;     /* tape_is_single_use(tape) */
     oct_slab_t slab;    /* LEAF: its slab (n = 0 when none) */
 } decision_t;
 
@@ -65,8 +63,9 @@ typedef struct pool {
  * more than a few hundred buys nothing and costs cache). */
 #define CHAIN_BATCH 512
 
-/* Scratch of one chain_classify call, CHAIN_BATCH entries each.  The passes
- * fill only the entries of the cells still open. */
+/* Scratch of one chain_classify call, CHAIN_BATCH entries each, in one
+ * allocation that starts at `ilie` (build.c).  The passes fill only the
+ * entries of the cells still open. */
 typedef struct chain_scratch {
     iv_t *F;              /* by cell: f over its box */
     int *open, *thin;     /* indices of the cells still open, and of the thin ones */

@@ -173,8 +173,6 @@ void chain_classify(worker_t *w, const tape_t *t, int single_use, const cell_t *
     int *open = w->chain.open, nopen = 0;
     for (int k = 0; k < m; k++) {
         out[k].F = F[k];
-        out[k].tape = t;
-        out[k].single_use = single_use;
         int excluded = iv_is_empty(F[k]) || F[k].lo > 0 || F[k].hi < 0;
         if ((b->tests & OCT_TEST_INTERVAL) && excluded) {
             out[k].kind = EMPTY;

@@ -451,12 +451,12 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
         uint64_t code = get_u64(&r);
         double f_lo = get_f64(&r), f_hi = get_f64(&r);
         const unsigned char *d = take(&r, 1);
-        /* a depth or code that does not fit is caught by the structure check
-         * below (the leaf must be at the place its code names) */
-        int depth = d && *d <= OCT_MAX_DEPTH ? *d : 0;
-        t->leaves[i] = oct_leaf_make(code & (((uint64_t)1 << (3 * depth)) - 1), depth, f_lo, f_hi);
-        if (d && (*d > OCT_MAX_DEPTH || code >> (3 * depth)))
-            t->leaves[i].key = 0; /* matches no place: the check refuses it */
+        int fits = d && *d <= OCT_MAX_DEPTH && !(code >> (3 * *d));
+        t->leaves[i] = oct_leaf_make(fits ? code : 0, fits ? *d : 0, f_lo, f_hi);
+        /* a depth or code no leaf can have: key 0 matches no place, so the
+         * structure check below refuses the file */
+        if (!fits)
+            t->leaves[i].key = 0;
     }
     if (has_slabs) {
         t->slabs = malloc(((size_t)t->n_leaves + 1) * sizeof *t->slabs);

@@ -2,6 +2,8 @@
 // recognising files for `ivoct info`.  Includes neither VTK nor OpenVDB.
 #include <cerrno>
 #include <csignal>
+#include <ctime>
+#include <dirent.h>
 #include <fcntl.h>
 #include <cstring>
 #include <strings.h>
@@ -191,6 +193,50 @@ void limit_child_memory(const char *path)
     }
 }
 
+// A child forked from a process with other threads inherits their locks as they were at
+// the fork, and one held there is never released in the child.  The threads ivoct has
+// besides the caller sleep once started (the CLI's signal thread in sigwait, the pool
+// that OpenVDB's log4cplus starts at load time in a condition wait); while one is still
+// starting it may hold the allocator's lock (ASan's does, in clang 14: the child hung in
+// malloc, about one `ivoct info` in thirty on a loaded machine).  So the fork waits, up
+// to a second, until every other thread of the process is asleep.
+bool other_threads_asleep()
+{
+    DIR *dir = opendir("/proc/self/task");
+    if (!dir)
+        return true;  // no /proc: nothing to wait for that can be seen
+    bool asleep = true;
+    char self[32];
+    std::snprintf(self, sizeof self, "%ld", (long)gettid());
+    while (struct dirent *d = readdir(dir)) {
+        if (d->d_name[0] == '.' || !std::strcmp(d->d_name, self))
+            continue;
+        char stat[512];
+        std::string name = std::string("/proc/self/task/") + d->d_name + "/stat";
+        FILE *f = std::fopen(name.c_str(), "r");
+        if (!f)
+            continue;  // a thread that has ended
+        size_t n = std::fread(stat, 1, sizeof stat - 1, f);
+        std::fclose(f);
+        stat[n] = 0;
+        const char *state = std::strrchr(stat, ')');  // after the thread's name
+        if (state && state[1] == ' ' && state[2] != 'S') {
+            asleep = false;
+            break;
+        }
+    }
+    closedir(dir);
+    return asleep;
+}
+
+void wait_for_other_threads_asleep()
+{
+    for (int i = 0; i < 200 && !other_threads_asleep(); i++) {
+        struct timespec ts = {0, 5000000};
+        nanosleep(&ts, nullptr);
+    }
+}
+
 int info_in_child(Format fmt, const char *path, FILE *out, ivoct_error_t *err)
 {
     const char *lib = fmt == Format::vdb ? "OpenVDB" : "VTK";
@@ -200,6 +246,7 @@ int info_in_child(Format fmt, const char *path, FILE *out, ivoct_error_t *err)
         return -1;
     }
     std::fflush(out);
+    wait_for_other_threads_asleep();
     pid_t pid = fork();
     if (pid < 0) {
         ivoct_error_set(err, "cannot read %s: %s", path, std::strerror(errno));

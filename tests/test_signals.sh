@@ -94,10 +94,20 @@ EOF
 
 # The reference outputs (timed: the delays below are spread over this run), and older
 # ones (a lower depth) for the runs over existing files.
-t0=$(now_ms)
-# shellcheck disable=SC2046
-run 0 "reference build" -- build "$SCENE" --depth "$DEPTH" --threads 2 --quiet $(outputs "$TMP/new/out")
-T=$(($(now_ms) - t0))
+# The fastest of three runs: on a shared machine one run can be slowed by a neighbour, and
+# delays computed from a slow run would land after the end of the later, faster ones.
+mkdir -p "$TMP/again"
+T=
+for r in 1 2 3; do
+    t0=$(now_ms)
+    dir=$TMP/new
+    [ "$r" -gt 1 ] && dir=$TMP/again
+    # shellcheck disable=SC2046
+    run 0 "reference build $r" -- build "$SCENE" --depth "$DEPTH" --threads 2 --quiet $(outputs "$dir/out")
+    t=$(($(now_ms) - t0))
+    [ -z "$T" ] || [ "$t" -lt "$T" ] && T=$t
+done
+rm -rf "$TMP/again"
 # shellcheck disable=SC2046
 run 0 "older outputs" -- build "$SCENE" --depth $((DEPTH - 1)) --quiet $(outputs "$TMP/old/out")
 for e in $EXTS; do
@@ -187,15 +197,23 @@ N=10
 for ((i = 0; i < N; i++)); do
     sig=${sigs[i % 3]}
     old=
-    [ $((i % 4)) -eq 3 ] && old=old && cp "$TMP/old"/out.* "$TMP/o/"
+    [ $((i % 4)) -eq 3 ] && old=old
     delay_ms=$((9 * T * (2 * i + 1) / (20 * N))) # over the first 90% of the run
-    # shellcheck disable=SC2046
-    start "" "" build "$SCENE" --depth "$DEPTH" --quiet $(outputs "$O")
-    wait_started || fail "timed run $i: ivoct did not start"
-    sleep "$(printf '%d.%03d' $((delay_ms / 1000)) $((delay_ms % 1000)))"
-    kill -"$sig" "$PID" 2>/dev/null
-    finish
-    check "SIG$sig after ${delay_ms} ms${old:+ over older files}" "$sig" any "$old"
+    # a run that ended before its signal is tried again with half the delay (twice at most)
+    for attempt in 1 2 3; do
+        [ -n "$old" ] && cp "$TMP/old"/out.* "$TMP/o/"
+        finished=$FINISHED
+        # shellcheck disable=SC2046
+        start "" "" build "$SCENE" --depth "$DEPTH" --quiet $(outputs "$O")
+        wait_started || fail "timed run $i: ivoct did not start"
+        sleep "$(printf '%d.%03d' $((delay_ms / 1000)) $((delay_ms % 1000)))"
+        kill -"$sig" "$PID" 2>/dev/null
+        finish
+        check "SIG$sig after ${delay_ms} ms${old:+ over older files}" "$sig" any "$old"
+        [ "$FINISHED" -eq "$finished" ] || [ "$attempt" -eq 3 ] && break
+        FINISHED=$finished
+        delay_ms=$((delay_ms / 2))
+    done
 done
 echo "timed signals: $INTERRUPTED interrupted runs in all, $FINISHED timed runs had ended"
 # most timed signals must land in the run, or they test nothing (a few may come after

@@ -21,9 +21,11 @@
  *  - the sugar strategy (the pair of least "sugar", the degree the
  *    S-polynomial would have with the inputs homogenised): lex orders are
  *    not degree compatible, and choosing by the lcm alone lets the degrees
- *    of the basis run away (the Roman surface: minutes instead of 10 ms);
+ *    of the basis run away (the Roman surface: unfinished after 20 s instead
+ *    of 3 ms);
  *  - reduction by every element found, redundant ones included: they keep
- *    the remainders short (measured: the Roman surface again).
+ *    the remainders short (the Roman surface again: unfinished after 20 s
+ *    with the minimal basis alone).
  * The basis is then autoreduced (Calcium) and its elements in x, y, z read. */
 #include <stdlib.h>
 #include <string.h>

@@ -84,6 +84,13 @@ fi
 part "the writers of ivoct build: seconds per output against the build (bench/writers.sh)"
 bash "$here/writers.sh" --build "$build" "${q[@]}"
 
+part "parametric scenes: implicitization against build and render (bench/implicitize.sh)"
+if [ "$quick" = 1 ]; then
+    bash "$here/implicitize.sh" --build "$build" --reps 1 --depth 5 --size 64x64
+else
+    bash "$here/implicitize.sh" --build "$build"
+fi
+
 part "numerical stability stress cases (bench/stability.sh)"
 bash "$here/stability.sh" --build "$build"
 

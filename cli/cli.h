@@ -26,6 +26,7 @@ int cmd_eval(int argc, char **argv);
 int cmd_build(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_render(int argc, char **argv);
+int cmd_implicitize(int argc, char **argv);
 
 /* ---- options (options.c) ------------------------------------------------------------
  * Each command describes its options in a table, parsed by cli_parse; the
@@ -106,6 +107,11 @@ void cli_json_double(FILE *f, double x);
 
 /* Print a JSON string literal (quotes, backslashes and control characters escaped). */
 void cli_json_string(FILE *f, const char *s);
+
+/* For the stats of a parametric scene: ',\n  "implicitize": {"method": .., "seconds": ..,
+ * "degree": .., "terms": ..}'; nothing for an implicit one. */
+struct scene;
+void cli_json_implicitize(FILE *f, const struct scene *s);
 
 /* A progress bar on stderr, shown once the work has lasted a second.  The
  * caller only installs it when stderr is a terminal and not --quiet.  With

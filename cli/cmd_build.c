@@ -46,6 +46,7 @@ static int write_stats(const scene_t *s, const oct_tree_t *t, io_group_t *g, con
     int n = t->depth + 1;
     fputs("{\n  \"scene\": ", o);
     cli_json_string(o, s->source.name);
+    cli_json_implicitize(o, s);
     fputs(",\n  \"tests\": ", o);
     cli_json_string(o, oct_tests_format(t->tests, tests, sizeof tests));
     fputs(",\n", o);
@@ -308,9 +309,10 @@ int cmd_build(int argc, char **argv)
     scene_t s;
     ivoct_error_t err;
     ivoct_error_clear(&err);
-    if (scene_load(scene_path, &s, &err)) {
+    int loaded = scene_load(scene_path, &s, &err);
+    if (loaded) {
         cli_print_error(&err);
-        return EXIT_USAGE;
+        return loaded == SCENE_ERUNTIME ? EXIT_RUNTIME : EXIT_USAGE;
     }
     rc = EXIT_OK;
     /* the scene's settings, overridden by the options */

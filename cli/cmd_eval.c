@@ -74,7 +74,7 @@ int cmd_eval(int argc, char **argv)
     rc = expr ? scene_from_expr(expr, box, &s, &err) : scene_load(scene_path, &s, &err);
     if (rc) {
         cli_print_error(&err);
-        return EXIT_USAGE;
+        return rc == SCENE_ERUNTIME ? EXIT_RUNTIME : EXIT_USAGE;
     }
     if (have_box)
         memcpy(s.box, box, sizeof box);

@@ -1,4 +1,5 @@
 /* ivoct info — summarise a file ivoct wrote. */
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -29,6 +30,11 @@ static int info_ivo(const char *path)
     for (size_t i = 0; i < src.n_lets; i++)
         printf("let:      %s = %s\n", src.let_names[i], src.let_texts[i]);
     printf("f:        %s\n", src.f);
+    for (int k = 0; k < 3 && src.param[0]; k++)
+        printf("param.%c:  %s\n", "xyz"[k], src.param[k]);
+    for (int k = 0; k < 2 && src.param[0]; k++)
+        if (!isnan(src.patch[2 * k]))
+            printf("%c:        [%.17g, %.17g]\n", "uv"[k], src.patch[2 * k], src.patch[2 * k + 1]);
     printf("box:      [%.17g, %.17g] x [%.17g, %.17g] x [%.17g, %.17g]\n", t->box[0], t->box[1],
            t->box[2], t->box[3], t->box[4], t->box[5]);
     printf("depth:    %d\n", t->depth);

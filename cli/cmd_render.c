@@ -163,6 +163,7 @@ static int write_stats(io_group_t *g, const char *path, const scene_t *s, ray_me
     FILE *o = f.f;
     fputs("{\n  \"scene\": ", o);
     cli_json_string(o, s->source.name);
+    cli_json_implicitize(o, s);
     fputs(",\n  \"method\": ", o);
     cli_json_string(o, ray_method_name(method));
     fprintf(o,
@@ -349,9 +350,10 @@ int cmd_render(int argc, char **argv)
     scene_t s;
     ivoct_error_t err;
     ivoct_error_clear(&err);
-    if (scene_load(scene_path, &s, &err)) {
+    int loaded = scene_load(scene_path, &s, &err);
+    if (loaded) {
         cli_print_error(&err);
-        return EXIT_USAGE;
+        return loaded == SCENE_ERUNTIME ? EXIT_RUNTIME : EXIT_USAGE;
     }
     rc = EXIT_OK;
     /* every output goes to a temporary name; all are renamed at the end, and

@@ -19,6 +19,8 @@ static const char USAGE[] =
     "                      [--max-memory SIZE] [--vtu F] [--htg F] [--vdb F] [--mesh F]\n"
     "                      [--cells F.csv] [--save F.ivo] [--stats F.json] [--quiet]\n"
     "  info    summarise an octree or export file: ivoct info FILE\n"
+    "  implicitize  the implicit equation of a parametric scene:\n"
+    "          ivoct implicitize SCENE [--method M] [--time-limit S] [--json]\n"
     "  render  ray cast a scene into a PNG and/or the .vti render buffers:\n"
     "          ivoct render SCENE [--octree F.ivo | --no-octree] [--no-leaf-tapes]\n"
     "                       [--method M] [--size WxH] [--threads N] [--max-memory SIZE]\n"
@@ -59,7 +61,9 @@ int main(int argc, char **argv)
         const char *name;
         int (*run)(int, char **);
     } commands[] = {
-        {"eval", cmd_eval}, {"build", cmd_build}, {"info", cmd_info}, {"render", cmd_render}};
+        {"eval", cmd_eval},     {"build", cmd_build},
+        {"info", cmd_info},     {"render", cmd_render},
+        {"implicitize", cmd_implicitize}};
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         if (!strcmp(cmd, commands[i].name)) {
             /* before any thread is started */

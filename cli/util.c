@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "../scene/scene.h"
 #include "cli.h"
 
 int cli_usage_error(const char *cmd, const char *fmt, ...)
@@ -79,6 +80,18 @@ void cli_show_progress(void *user, double fraction)
         atomic_store(&cli_progress_open, 0);
     }
     fflush(stderr);
+}
+
+void cli_json_implicitize(FILE *f, const scene_t *s)
+{
+    const imp_result_t *r = s->implicit;
+    if (!r)
+        return;
+    fputs(",\n  \"implicitize\": {\"method\": ", f);
+    cli_json_string(f, imp_method_name(r->method));
+    fputs(", \"seconds\": ", f);
+    cli_json_double(f, r->seconds);
+    fprintf(f, ", \"degree\": %d, \"terms\": %ld}", r->degree, r->terms);
 }
 
 void cli_json_string(FILE *f, const char *s)

@@ -1,9 +1,11 @@
 /* ivoct — the native octree file (.ivo).
  *
  * Layout, all integers little-endian, doubles as their IEEE bits:
- *   "IVOCTREE"  u32 version (2, the only one oct_load reads)
+ *   "IVOCTREE"  u32 version (3; oct_load also reads 2, without the parametrization)
  *   u32 depth  u32 tests  f64 refine  u32 has_slabs  f64 box[6]
  *   str name  u32 n_lets  (str let_name  str let_text) * n_lets  str f
+ *   str param_x  str param_y  str param_z  f64 patch[4]   (version 3; "" for an
+ *                                                         implicit scene)
  *   u32 n_nodes  u32 n_leaves
  *   u32 node * n_nodes
  *   (u64 code  f64 f_lo  f64 f_hi  u8 depth) * n_leaves
@@ -21,7 +23,7 @@
 #include "octree.h"
 
 #define MAGIC "IVOCTREE"
-#define VERSION 2u
+#define VERSION 3u
 #define MAX_FILE ((size_t)1 << 36)
 
 /* ---- writing through a buffer ----------------------------------------------------
@@ -143,6 +145,10 @@ int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
         put_str(&b, src->let_texts[i]);
     }
     put_str(&b, src ? src->f : "");
+    for (int k = 0; k < 3; k++)
+        put_str(&b, src && src->param[k] ? src->param[k] : "");
+    for (int k = 0; k < 4; k++)
+        put_f64(&b, src && src->param[0] ? src->patch[k] : NAN);
     put_u32(&b, tree->n_nodes);
     put_u32(&b, tree->n_leaves);
     if (HOST_LITTLE_ENDIAN) {
@@ -266,6 +272,8 @@ void oct_source_free(oct_source_t *src)
     free(src->let_names);
     free(src->let_texts);
     free(src->f);
+    for (int k = 0; k < 3; k++)
+        free(src->param[k]);
     memset(src, 0, sizeof *src);
 }
 
@@ -403,7 +411,7 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
     r.n = n - 8; /* the checksum is not payload */
     r.at = 8;
     uint32_t version = get_u32(&r);
-    if (version != VERSION) {
+    if (version != VERSION && version != 2) {
         why = "unsupported version";
         goto fail;
     }
@@ -431,6 +439,23 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
         s.let_texts[i] = get_str(&r);
     }
     s.f = get_str(&r);
+    for (int k = 0; k < 4; k++)
+        s.patch[k] = NAN;
+    if (version >= 3) {
+        for (int k = 0; k < 3; k++)
+            s.param[k] = get_str(&r);
+        for (int k = 0; k < 4; k++)
+            s.patch[k] = get_f64(&r);
+        int given = 0;
+        for (int k = 0; k < 3; k++)
+            given += s.param[k] && s.param[k][0];
+        if (given != 0 && given != 3)
+            r.bad = 1; /* a parametrization has its three coordinates */
+        for (int k = 0; k < 3 && !given; k++) {
+            free(s.param[k]);
+            s.param[k] = NULL;
+        }
+    }
     t->n_nodes = get_u32(&r);
     t->n_leaves = get_u32(&r);
     if (r.bad || t->depth < 0 || t->depth > OCT_MAX_DEPTH ||

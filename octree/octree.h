@@ -217,12 +217,16 @@ void oct_leaf_tapes_free(oct_leaf_tapes_t *lt);
 
 /* ---- native file (.ivo) -----------------------------------------------------
  * The scene the tree was built from travels with it so it can be rebuilt or
- * rendered: its name, its named subexpressions and f, as texts. */
+ * rendered: its name, its named subexpressions and f, as texts; for a
+ * parametric surface also the parametrization f was implicitized from (f is
+ * then the implicit polynomial, the text the tree was built from). */
 typedef struct oct_source {
     char *name;
     size_t n_lets;
     char **let_names, **let_texts;
     char *f;
+    char *param[3];  /* X(u,v), Y(u,v), Z(u,v) as written; NULL for an implicit scene */
+    double patch[4]; /* u0 u1 v0 v1 of the parametrization's patch; NaN when not given */
 } oct_source_t;
 
 /* Write atomically (temporary file renamed on success). */

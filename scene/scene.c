@@ -31,14 +31,22 @@ static const struct {
     const char *key;
 } KEYS[K_COUNT] = {
     [K_NAME] = {SEC_SURFACE, "name"},   [K_F] = {SEC_SURFACE, "f"},
-    [K_BOX] = {SEC_SURFACE, "box"},     [K_DEPTH] = {SEC_OCTREE, "depth"},
+    [K_BOX] = {SEC_SURFACE, "box"},     [K_PARAM_X] = {SEC_SURFACE, "param.x"},
+    [K_PARAM_Y] = {SEC_SURFACE, "param.y"}, [K_PARAM_Z] = {SEC_SURFACE, "param.z"},
+    [K_U] = {SEC_SURFACE, "u"},         [K_V] = {SEC_SURFACE, "v"},
+    [K_IMPLICITIZE] = {SEC_SURFACE, "implicitize"}, [K_DEPTH] = {SEC_OCTREE, "depth"},
     [K_TESTS] = {SEC_OCTREE, "tests"},  [K_REFINE] = {SEC_OCTREE, "refine"},
     [K_EYE] = {SEC_CAMERA, "eye"},      [K_TARGET] = {SEC_CAMERA, "target"},
     [K_UP] = {SEC_CAMERA, "up"},        [K_FOV] = {SEC_CAMERA, "fov"},
     [K_SIZE] = {SEC_CAMERA, "size"},    [K_METHOD] = {SEC_RENDER, "method"},
 };
 static const char *const KEYS_EXPECTED[] = {
-    "", "name, f, box or let.NAME", "depth, tests or refine", "eye, target, up, fov or size", "method", "",
+    "",
+    "name, f, box, let.NAME, param.x, param.y, param.z, u, v or implicitize",
+    "depth, tests or refine",
+    "eye, target, up, fov or size",
+    "method",
+    "",
 };
 
 int scene_section_id(const char *name, size_t n)
@@ -86,6 +94,8 @@ typedef struct camera_keys {
 static void set_defaults(scene_t *s, camera_keys_t *c)
 {
     oct_params_default(&s->octree);
+    for (int k = 0; k < 4; k++)
+        s->source.patch[k] = NAN;
     ray_render_opts_t ro;
     ray_render_opts_default(&ro);
     s->method = ro.method;
@@ -223,7 +233,7 @@ static void check_camera(loader_t *L, scene_t *s, const camera_keys_t *c)
 /* An expression error of entry e, moved from text to file positions: the
  * error's own position, and the one a message may quote ("... opened at
  * L:C", written by expr/parse.c in text positions too). */
-static void fail_expr(loader_t *L, const entry_t *e, const ivoct_error_t *ce)
+void scene_fail_expr(loader_t *L, const entry_t *e, const ivoct_error_t *ce)
 {
     int fl, fc;
     scene_val_map_pos(e, ce->line, ce->col, &fl, &fc);
@@ -278,7 +288,7 @@ static int compile(loader_t *L, scene_t *s)
             rc = -1;
         } else if (tape_compiler_define(tc, name, text, &ce)) {
             if (ce.line > 0)
-                fail_expr(L, e, &ce);
+                scene_fail_expr(L, e, &ce);
             else /* name errors have no position in the text: point at the name */
                 scene_fail_at(L, e->line, e->col + 4, "%s", ce.msg);
             rc = -1;
@@ -291,7 +301,7 @@ static int compile(loader_t *L, scene_t *s)
             scene_fail_oom(L);
             rc = -1;
         } else if (tape_compiler_compile(tc, s->source.f, &s->tape, &ce)) {
-            fail_expr(L, f, &ce);
+            scene_fail_expr(L, f, &ce);
             rc = -1;
         }
     }
@@ -322,6 +332,24 @@ static void set_file(ivoct_error_t *err, const char *path)
 
 int scene_load(const char *path, scene_t *s, ivoct_error_t *err)
 {
+    return scene_load_with(path, NULL, s, err);
+}
+
+/* The keys of a parametric surface given to an implicit one. */
+static void check_implicit_only(loader_t *L)
+{
+    static const int kinds[] = {K_U, K_V, K_IMPLICITIZE};
+    for (size_t i = 0; i < sizeof kinds / sizeof *kinds; i++) {
+        const entry_t *e = scene_entry(L, kinds[i]);
+        if (e)
+            scene_fail_at(L, e->line, e->col,
+                          "%s: only for a parametric surface (param.x, param.y, param.z)",
+                          scene_key_name(kinds[i]));
+    }
+}
+
+int scene_load_with(const char *path, const scene_options_t *opt, scene_t *s, ivoct_error_t *err)
+{
     memset(s, 0, sizeof *s);
     ivoct_error_clear(err);
     set_file(err, path);
@@ -339,21 +367,27 @@ int scene_load(const char *path, scene_t *s, ivoct_error_t *err)
      * their values are complete and checked in any case; scene_fail_at keeps
      * the error that comes first in the file. */
     bool structure_ok = !L.failed;
+    bool parametric = L.seen[K_PARAM_X] || L.seen[K_PARAM_Y] || L.seen[K_PARAM_Z];
     if (!L.oom)
         parse_values(&L, s, &cam);
+    if (!L.oom && !parametric)
+        check_implicit_only(&L);
     if (!L.oom && !L.failed) {
         if (!L.has_surface)
             scene_fail_at(&L, 1, 1, "missing [surface] section");
-        else if (!L.seen[K_F])
-            scene_fail_at(&L, 1, 1, "missing [surface] f");
+        else if (!L.seen[K_F] && !parametric)
+            scene_fail_at(&L, 1, 1, "missing [surface] f (or param.x, param.y and param.z "
+                                    "for a parametric surface)");
     }
     /* Expressions only in a sound file: after a structural error a name
      * may be defined in the part that was not read.  Compiled before the box
      * is required, as an indented "box = ..." line is read as more of f,
      * and the compiler's error then explains that. */
-    if (!L.oom && structure_ok && L.seen[K_F])
+    if (!L.oom && structure_ok && parametric)
+        scene_parametric(&L, s, opt, !L.seen[K_BOX]);
+    else if (!L.oom && structure_ok && L.seen[K_F])
         compile(&L, s);
-    if (!L.oom && !L.failed && !L.seen[K_BOX])
+    if (!L.oom && !L.failed && !L.seen[K_BOX] && !parametric)
         scene_fail_at(&L, 1, 1, "missing [surface] box");
     if (!L.oom && !L.failed) {
         frame_box(s->box, &cam, have_eye, have_target);
@@ -370,9 +404,10 @@ int scene_load(const char *path, scene_t *s, ivoct_error_t *err)
             ivoct_error_at(err, 0, 0, "out of memory while loading the scene");
         else
             ivoct_error_at(err, L.first.line, L.first.col, "%s", L.first.msg);
+        bool runtime = L.oom || L.over_budget;
         scene_ini_free(&L);
         scene_free(s);
-        return -1;
+        return runtime ? SCENE_ERUNTIME : SCENE_EINPUT;
     }
     scene_ini_free(&L);
     return 0;
@@ -417,5 +452,9 @@ void scene_free(scene_t *s)
     free(s->path);
     oct_source_free(&s->source);
     tape_free(s->tape);
+    if (s->implicit) {
+        imp_result_free(s->implicit);
+        free(s->implicit);
+    }
     memset(s, 0, sizeof *s);
 }

@@ -8,6 +8,8 @@
  *             file position
  *   scene.c   the scene: its sections and keys, defaults, the box, the camera,
  *             compiling the lets and f; scene_load, scene_from_expr
+ *   parametric.c  a parametric surface: the parametrization read, implicitized
+ *             (implicit/) into f, and the box its patch bounds
  *
  * Errors go through scene_fail_at, which keeps the one that comes first in the
  * file; scene_load reports it.
@@ -23,7 +25,10 @@
 /* ---- sections and keys (scene.c) ------------------------------------------------ */
 
 enum { SEC_NONE, SEC_SURFACE, SEC_OCTREE, SEC_CAMERA, SEC_RENDER, SEC_UNKNOWN };
-enum { K_NAME, K_F, K_BOX, K_DEPTH, K_TESTS, K_REFINE, K_EYE, K_TARGET, K_UP, K_FOV, K_SIZE, K_METHOD, K_COUNT };
+enum {
+    K_NAME, K_F, K_BOX, K_PARAM_X, K_PARAM_Y, K_PARAM_Z, K_U, K_V, K_IMPLICITIZE,
+    K_DEPTH, K_TESTS, K_REFINE, K_EYE, K_TARGET, K_UP, K_FOV, K_SIZE, K_METHOD, K_COUNT
+};
 #define K_LET K_COUNT /* let.NAME: the only key that may be given more than once */
 
 /* The SEC_* of a section name (n bytes), SEC_UNKNOWN when it is none. */
@@ -78,6 +83,7 @@ typedef struct loader {
     bool failed;
     ivoct_error_t first;
     bool oom;
+    bool over_budget; /* the error is a budget exceeded (a runtime failure, not bad input) */
 } loader_t;
 
 /* Read L->path and store its keys.  Returns non-zero with err set when the
@@ -100,11 +106,25 @@ void scene_fail_at(loader_t *L, int line, int col, const char *fmt, ...)
     ;
 void scene_fail_oom(loader_t *L);
 
+/* An error of an expression in the value of entry e (ce's positions, its own and
+ * an "opened at L:C" in its message, inside the value joined with '\n'), kept at
+ * its file position (scene.c). */
+void scene_fail_expr(loader_t *L, const entry_t *e, const ivoct_error_t *ce);
+
 /* inih's isspace() in the C locale. */
 static inline int scene_is_space(int c)
 {
     return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f';
 }
+
+/* ---- a parametric surface (parametric.c) -------------------------------------------
+ * With param.x, param.y and param.z given: parse them, implicitize (method and
+ * budget from opt, or the scene's implicitize key), set s->source.f to the
+ * implicit polynomial (the text the tape is compiled from), s->source.param and
+ * patch, and s->implicit.  need_box: the file has no box, so the patch (u, v)
+ * must bound one.  Errors through scene_fail_at; a budget exceeded also sets
+ * L->over_budget.  Returns non-zero on error. */
+int scene_parametric(loader_t *L, scene_t *s, const scene_options_t *opt, bool need_box);
 
 /* ---- values (values.c) ------------------------------------------------------------
  * Each scene_val_* parses the value of entry e, reports an error through

@@ -279,11 +279,11 @@ static int is_structure_reason(const char *why)
 /* ---- the layout of a file (octree/file.c) ------------------------------------------ */
 
 typedef struct layout {
-    size_t depth, n_lets, f, n_nodes, n_leaves, nodes, leaves, slabs, checksum;
+    size_t depth, n_lets, f, param, patch, n_nodes, n_leaves, nodes, leaves, slabs, checksum;
     uint32_t nn, nl, has_slabs;
 } layout_t;
 
-#define FILE_VERSION 2 /* octree/file.c */
+#define FILE_VERSION 3 /* octree/file.c */
 #define OFF_VERSION 8
 #define OFF_DEPTH 12
 #define OFF_REFINE 20
@@ -305,6 +305,11 @@ static void layout_of(const unsigned char *p, size_t n, layout_t *L)
         at += 4 + get_u32(p + at);
     L->f = at;
     at += 4 + get_u32(p + at);
+    L->param = at;
+    for (int k = 0; k < 3; k++)
+        at += 4 + get_u32(p + at);
+    L->patch = at;
+    at += 4 * 8;
     L->n_nodes = at;
     L->nn = get_u32(p + at);
     L->n_leaves = at + 4;
@@ -346,6 +351,18 @@ static void same_source(const oct_source_t *a, const oct_source_t *b)
         assert_string_equal(a->let_texts[i], b->let_texts[i]);
     }
     assert_string_equal(a->f ? a->f : "", b->f);
+    for (int k = 0; k < 3; k++) {
+        if (a->param[0])
+            assert_string_equal(a->param[k], b->param[k]);
+        else
+            assert_null(b->param[k]);
+    }
+    for (int k = 0; k < 4; k++) {
+        if (a->param[0] && !isnan(a->patch[k]))
+            assert_memory_equal(&a->patch[k], &b->patch[k], sizeof(double));
+        else
+            assert_true(isnan(b->patch[k]));
+    }
 }
 
 /* Save, load, compare; save the loaded tree again: same bytes. */
@@ -410,16 +427,73 @@ static void test_round_trip(void **state)
     ivoct_error_clear(&err);
     assert_int_equal(tape_compile("x^2 + y^2 + z^2 - 1", &tape, &err), 0);
     double box[6] = {-2, 2, -2, 2, -2, 2}, far[6] = {3, 4, 3, 4, 3, 4};
-    oct_source_t src = {"edge", 0, NULL, NULL, "x^2 + y^2 + z^2 - 1"};
+    oct_source_t src = {"edge", 0, NULL, NULL, "x^2 + y^2 + z^2 - 1", {NULL}, {NAN, NAN, NAN, NAN}};
     oct_tree_t *t = build(tape, box, 0);
     assert_int_equal(t->n_leaves, 1);
     round_trip(t, &src);
+    /* a parametric surface's source: the parametrization and its patch travel too */
+    char px[] = "2*u/(1+u^2+v^2)", py[] = "2*v/(1+u^2+v^2)", pz[] = "(u^2+v^2-1)/(1+u^2+v^2)";
+    oct_source_t par = {"stereo", 0, NULL, NULL, "x^2 + y^2 + z^2 - 1", {px, py, pz},
+                        {-3, 3, -3, 3}};
+    round_trip(t, &par);
+    par.patch[2] = par.patch[3] = NAN; /* a patch of u only */
+    round_trip(t, &par);
     oct_free(t);
     t = build(tape, far, 5);
     assert_int_equal(t->n_leaves, 0);
     round_trip(t, &src);
     oct_free(t);
     tape_free(tape);
+}
+
+/* A version 2 file (written before parametric scenes: no parametrization fields) loads,
+ * with the same tree and no parametrization; one whose parametrization has an empty
+ * coordinate is refused. */
+static void test_version_2(void **state)
+{
+    (void)state;
+    size_t n;
+    unsigned char *p = saved_scene("gumdrop", 3, &n);
+    layout_t L;
+    layout_of(p, n, &L);
+    size_t cut = L.n_nodes - L.param, m = n - cut;
+    unsigned char *q = malloc(n);
+    assert_non_null(q);
+    memcpy(q, p, L.param);
+    memcpy(q + L.param, p + L.n_nodes, n - L.n_nodes);
+    put_u32(q + OFF_VERSION, 2);
+    resign(q, m);
+    char path[128];
+    tmp_path(path, sizeof path, "v2.ivo");
+    write_all(path, q, m);
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    oct_tree_t *t2, *t3;
+    oct_source_t s2, s3;
+    if (oct_load(path, &t2, &s2, &err) != 0)
+        fail_msg("a version 2 file: %s", err.msg);
+    write_all(path, p, n);
+    assert_int_equal(oct_load(path, &t3, &s3, &err), 0);
+    same_tree(t3, t2);
+    same_source(&s3, &s2);
+    for (int k = 0; k < 3; k++)
+        assert_null(s2.param[k]);
+    oct_free(t2), oct_free(t3);
+    oct_source_free(&s2), oct_source_free(&s3);
+    remove(path);
+    printf("version 2 file (%zu bytes): loads as the version 3 one, no parametrization\n", m);
+
+    /* param_y given, param_x and param_z empty: refused */
+    unsigned char *r = malloc(n + 1);
+    assert_non_null(r);
+    memcpy(r, p, L.param + 4);
+    put_u32(r + L.param + 4, 1), r[L.param + 8] = 'u';
+    memcpy(r + L.param + 9, p + L.param + 8, n - (L.param + 8));
+    resign(r, n + 1);
+    expect_rejected(r, n + 1, "bad header or truncated tree", "a parametrization of one coordinate");
+    free(r);
+    free(q);
+    free(p);
 }
 
 static void test_missing_and_unwritable(void **state)
@@ -483,7 +557,8 @@ static void test_truncated(void **state)
     layout_t L;
     layout_of(p, n, &L);
     size_t marks[] = {8,      OFF_DEPTH, OFF_REFINE, OFF_HAS_SLABS, OFF_BOX, OFF_NAME,
-                      L.n_lets, L.f,       L.n_nodes,  L.nodes,       L.leaves, L.slabs,
+                      L.n_lets, L.f,       L.param,    L.patch,       L.n_nodes,
+                      L.nodes,  L.leaves,  L.slabs,
                       L.checksum, n - 1};
     for (size_t i = 0; i < sizeof marks / sizeof *marks; i++)
         for (int d = -1; d <= 1; d++) {
@@ -774,7 +849,7 @@ static void test_resigned_random(void **state)
 /* A file with the given nodes (no leaves), depth and a unit box. */
 static unsigned char *craft(const uint32_t *nodes, uint32_t nn, int depth, size_t *n)
 {
-    size_t cap = 128 + 4 * (size_t)nn;
+    size_t cap = 192 + 4 * (size_t)nn;
     unsigned char *p = calloc(cap, 1);
     assert_non_null(p);
     size_t at = 0;
@@ -791,6 +866,12 @@ static unsigned char *craft(const uint32_t *nodes, uint32_t nn, int depth, size_
     put_u32(p + at, 3), memcpy(p + at + 4, "dag", 3), at += 7;
     put_u32(p + at, 0), at += 4;
     put_u32(p + at, 1), p[at + 4] = 'x', at += 5;
+    for (int k = 0; k < 3; k++)
+        put_u32(p + at, 0), at += 4; /* no parametrization */
+    for (int k = 0; k < 4; k++) {
+        double v = NAN;
+        memcpy(p + at, &v, 8), at += 8;
+    }
     put_u32(p + at, nn), at += 4;
     put_u32(p + at, 0), at += 4;
     for (uint32_t i = 0; i < nn; i++)
@@ -868,6 +949,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip),
+        cmocka_unit_test(test_version_2),
         cmocka_unit_test(test_missing_and_unwritable),
         cmocka_unit_test(test_truncated),
         cmocka_unit_test(test_corrupt),

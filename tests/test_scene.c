@@ -228,11 +228,12 @@ static void test_errors(void **state)
         {"", 1, 1, "empty scene file, expected a [surface] section"},
         {"; just a comment\n\n   \n# and another\n", 1, 1, "empty scene file, expected a [surface] section"},
         {"[octree]\ndepth = 3\n", 1, 1, "missing [surface] section"},
-        {"[surface]\n" BOX, 1, 1, "missing [surface] f"},
+        {"[surface]\n" BOX, 1, 1,
+         "missing [surface] f (or param.x, param.y and param.z for a parametric surface)"},
         {"[surface]\nf = x\n", 1, 1, "missing [surface] box"},
         {"f = x\n", 1, 1, "key 'f' before any section; expected a [surface] section first"},
         {"[surface]\nf = x\n" BOX "colour = red\n", 4, 1,
-         "unknown key 'colour' in [surface]; expected name, f, box or let.NAME"},
+         "unknown key 'colour' in [surface]; expected name, f, box, let.NAME, param.x, param.y, param.z, u, v or implicitize"},
         {"[surface]\nf = x\n" BOX "[octree]\ndeep = 3\n", 5, 1,
          "unknown key 'deep' in [octree]; expected depth, tests or refine"},
         /* an indented key continues the key above it */
@@ -335,12 +336,12 @@ static void test_errors(void **state)
         /* after a structural error, expressions are not compiled: r2 is unknown only
          * because line 4 was not read */
         {"[surface]\nf = r2 - 1\nbogus = 1\nlet.r2 = 1\n" BOX, 3, 1,
-         "unknown key 'bogus' in [surface]; expected name, f, box or let.NAME"},
+         "unknown key 'bogus' in [surface]; expected name, f, box, let.NAME, param.x, param.y, param.z, u, v or implicitize"},
         {"[surface]\nbox = -1 1 -1 1 -1 1 2\n[octree]\nbogus = 1\n", 2, 22,
          "box takes 6 numbers (xmin xmax ymin ymax zmin zmax), found more"},
         {"[surface]\nf = x\nbox = 2 1 -1 1 -1 1\n[octree]\nbogus = 1\n", 3, 7, "box: xmin 2 > xmax 1"},
         {"[surface]\nf = x\nbogus = 1\n[colors]\n", 3, 1,
-         "unknown key 'bogus' in [surface]; expected name, f, box or let.NAME"},
+         "unknown key 'bogus' in [surface]; expected name, f, box, let.NAME, param.x, param.y, param.z, u, v or implicitize"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         char name[32];
@@ -498,6 +499,132 @@ static void test_tests_list(void **state)
 }
 
 /* Every scene shipped in scenes/ loads. */
+/* ---- parametric surfaces -------------------------------------------------------------- */
+
+#define STEREO                                                                               \
+    "param.x = 2*u/(1 + u^2 + v^2)\n"                                                         \
+    "param.y = 2*v/(1 + u^2 + v^2)\n"                                                         \
+    "param.z = (u^2 + v^2 - 1)/(1 + u^2 + v^2)\n"
+
+/* f of the scene at a point (plain double evaluation of its tape) */
+static double f_at(const scene_t *s, double x, double y, double z)
+{
+    tape_ws_t *ws = tape_ws_new(s->tape->n);
+    assert_non_null(ws);
+    double out;
+    tape_eval_point(s->tape, ws, 1, &x, &y, &z, &out);
+    tape_ws_free(ws);
+    return out;
+}
+
+static void test_parametric(void **state)
+{
+    (void)state;
+    scene_t s;
+    /* the sphere by stereographic projection: f found, compiled, stored with the parametrization */
+    load_ok("stereo.ini", "[surface]\n" STEREO "u = -3 3\nv = -2 2\n" BOX, &s);
+    assert_non_null(s.implicit);
+    assert_int_equal(s.implicit->degree, 2);
+    assert_int_equal(s.implicit->terms, 4);
+    assert_string_equal(s.source.f, s.implicit->f_tape);
+    assert_string_equal(s.source.param[0], "2*u/(1 + u^2 + v^2)");
+    assert_string_equal(s.source.param[2], "(u^2 + v^2 - 1)/(1 + u^2 + v^2)");
+    assert_true(s.source.patch[0] == -3 && s.source.patch[1] == 3);
+    assert_true(s.source.patch[2] == -2 && s.source.patch[3] == 2);
+    assert_true(f_at(&s, 1, 0, 0) == 0 && f_at(&s, 0, 0.6, 0.8) == 0);
+    assert_true(f_at(&s, 0, 0, 0) != 0);
+    assert_memory_equal(s.box, ((double[6]){-1, 1, -1, 1, -1, 1}), sizeof s.box);
+    scene_free(&s);
+
+    /* no box: the patch bounds one, which holds the patch's points with a margin */
+    load_ok("umbrella.ini", "[surface]\nparam.x = u*v\nparam.y = u\nparam.z = v^2\n"
+            "u = -1 1\nv = -0.5 2\nimplicitize = groebner\n", &s);
+    assert_int_equal(s.implicit->method, IMP_GROEBNER);
+    assert_int_equal(s.implicit->degree, 3);
+    double want[6] = {-2, 2, -1, 1, 0, 4};
+    for (int k = 0; k < 6; k++) {
+        assert_true(k % 2 ? s.box[k] >= want[k] : s.box[k] <= want[k]);
+        assert_true(fabs(s.box[k] - want[k]) < 0.2 + 1e-9);
+    }
+    assert_true(s.source.patch[2] == -0.5 && s.source.patch[3] == 2);
+    for (int k = 0; k < 5; k++) { /* points of the patch are on f = 0 */
+        double u = -1 + 0.5 * k, v = -0.5 + 0.625 * k;
+        assert_true(fabs(f_at(&s, u * v, u, v * v)) < 1e-12);
+    }
+    scene_free(&s);
+
+    /* options: the method forced, a budget too small is a runtime failure */
+    const char *path = write_file("opt.ini", "[surface]\n" STEREO "implicitize = groebner\n" BOX);
+    ivoct_error_t err;
+    scene_options_t opt = {.implicitize = IMP_RESULTANT};
+    assert_int_equal(scene_load_with(path, &opt, &s, &err), 0);
+    assert_int_equal(s.implicit->method, IMP_RESULTANT);
+    scene_free(&s);
+    opt.implicitize = -1;
+    assert_int_equal(scene_load_with(path, &opt, &s, &err), 0);
+    assert_int_equal(s.implicit->method, IMP_GROEBNER);
+    scene_free(&s);
+    opt.budget.seconds = 1e-9;
+    assert_int_equal(scene_load_with(path, &opt, &s, &err), SCENE_ERUNTIME);
+    assert_int_equal(err.line, 2); /* at param.x's value */
+    assert_int_equal(err.col, 11);
+    assert_non_null(strstr(err.msg, "budget"));
+    remove(path);
+
+    /* the file's shape */
+    expect_error("both.ini", "[surface]\nf = x\n" STEREO BOX, 2, 1,
+                 "f and param.x, param.y, param.z: a surface is either implicit (f) or parametric "
+                 "(param.x, param.y, param.z), not both");
+    expect_error("part.ini", "[surface]\nparam.x = u\nparam.z = v\n" BOX, 2, 1,
+                 "missing [surface] param.y: a parametric surface needs param.x, param.y and "
+                 "param.z");
+    expect_error("let.ini", "[surface]\nlet.r = u\n" STEREO BOX, 2, 1,
+                 "let.r: named subexpressions are for f; a parametrization is written out");
+    expect_error("u-only.ini", "[surface]\nf = x\n" BOX "u = 0 1\n", 4, 1,
+                 "u: only for a parametric surface (param.x, param.y, param.z)");
+    expect_error("method-only.ini", "[surface]\nf = x\n" BOX "implicitize = auto\n", 4, 1,
+                 "implicitize: only for a parametric surface (param.x, param.y, param.z)");
+    expect_error("u-order.ini", "[surface]\n" STEREO "u = 1 0\n" BOX, 5, 5,
+                 "u: u0 1 must be below u1 0");
+    expect_error("v-count.ini", "[surface]\n" STEREO "v = 1\n" BOX, 5, 6,
+                 "v takes 2 numbers (v0 v1), found 1");
+    expect_error("method.ini", "[surface]\n" STEREO "implicitize = wu-ritt\n" BOX, 5, 15,
+                 "implicitize: unknown method 'wu-ritt'; expected auto, resultant or groebner");
+    expect_error("nobox.ini", "[surface]\n" STEREO "u = 0 1\n", 1, 1,
+                 "missing [surface] box (or u and v: the patch of the parametrization, which "
+                 "bounds one)");
+
+    /* errors of implicit/, at their file positions (continuation lines too) */
+    static const struct {
+        const char *text;
+        int line, col;
+        const char *words;
+    } cases[] = {
+        {"[surface]\nparam.x = u\nparam.y = 2*v/(1 + sin(u))\nparam.z = v\n" BOX, 3, 20, "sin"},
+        {"[surface]\nparam.x = u\nparam.y = v\nparam.z = u +\n   x*v\n" BOX, 5, 4, "'x'"},
+        {"[surface]\nparam.x = u\nparam.y = v\nparam.z = (u\n" BOX, 4, 13, "opened at 4:11"},
+        /* the image is not a surface: reported at param.x's value */
+        {"[surface]\nparam.x = 1\nparam.y = 2\nparam.z = 3\n" BOX, 2, 11, "constant"},
+        {"[surface]\nparam.x = u+v\nparam.y = (u+v)^2\nparam.z = (u+v)^3\n" BOX, 2, 11, "curve"},
+        /* a pole in the patch that bounds the box */
+        {"[surface]\nparam.x = 1/u\nparam.y = v\nparam.z = u\nu = -1 1\nv = 0 1\n", 2, 11,
+         "pole"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        path = write_file("bad-param.ini", cases[i].text);
+        memset(&s, 0x5a, sizeof s);
+        int rc = scene_load(path, &s, &err);
+        char got[1024];
+        ivoct_error_format(&err, got, sizeof got);
+        if (rc != SCENE_EINPUT || err.line != cases[i].line || err.col != cases[i].col ||
+            !strstr(err.msg, cases[i].words))
+            fail_msg("case %zu: rc %d, got %s; want %d:%d with '%s'", i, rc, got, cases[i].line,
+                     cases[i].col, cases[i].words);
+        printf("  %s\n", got);
+        remove(path);
+    }
+}
+
 static void test_shipped_scenes(void **state)
 {
     (void)state;
@@ -525,6 +652,7 @@ int main(void)
         cmocka_unit_test(test_errors),     cmocka_unit_test(test_cannot_open),
         cmocka_unit_test(test_limits),     cmocka_unit_test(test_from_expr),
         cmocka_unit_test(test_tests_list), cmocka_unit_test(test_shipped_scenes),
+        cmocka_unit_test(test_parametric),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

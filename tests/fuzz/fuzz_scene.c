@@ -1,7 +1,8 @@
 /* The scene loader (scene/, and through it the expression compiler, octree/'s
  * and ray/'s value checks): any file is loaded or refused with an error
  * naming what was expected, never a crash.  The input is written to a
- * temporary file (scene_load takes a path; scene files include nothing). */
+ * temporary file (scene_load takes a path; scene files include nothing).
+ * Parametric scenes are implicitized too (implicit/). */
 #define _DEFAULT_SOURCE
 #include <limits.h>
 
@@ -16,7 +17,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     scene_t s;
     ivoct_error_t err;
     ivoct_error_clear(&err);
-    if (scene_load(path, &s, &err) == 0) {
+    /* a small budget: a fuzzed parametrization of high degree is refused in a
+     * moment (the limits are implicit/'s to honour) rather than computed */
+    const scene_options_t opt = {.implicitize = -1, .budget = {.seconds = 0.5, .bytes = 64 << 20}};
+    if (scene_load_with(path, &opt, &s, &err) == 0) {
         if (!s.tape || !s.source.f)
             abort();
         scene_free(&s);

@@ -6,8 +6,10 @@
  * surface it traces: f has integer coefficients, is irreducible over Q and
  * vanishes identically on the parametrization (f(X(u,v), Y(u,v), Z(u,v)) = 0
  * as a rational function, checked exactly before it is returned).  The
- * arithmetic is FLINT's (fmpz_mpoly, exact); the Gröbner basis is Calcium's
- * Buchberger algorithm.  implicit/README.md explains the methods.
+ * arithmetic is FLINT's (fmpz_mpoly, exact; factoring and gcd too); the
+ * resultants (subresultant sequence) and the Buchberger loop are this
+ * module's, the latter on Calcium's S-polynomial and reduction primitives.
+ * implicit/README.md explains the methods.
  *
  * Nothing here prints, exits or aborts; every failure is a status and an
  * ivoct_error_t.
@@ -93,9 +95,12 @@ const char *imp_method_name(imp_method_t m);
 int imp_method_parse(const char *name, imp_method_t *m);
 
 /* Limits of one implicitization.  Time is wall-clock, checked between the
- * steps of a method (one resultant, one S-polynomial reduction): a step that
- * has begun runs to its end.  Memory bounds the intermediate polynomials
- * (their terms times their coefficients' size).  0: the default. */
+ * steps of a method (inside a resultant after each elimination of a leading
+ * term; one S-polynomial reduction; the factorization of the eliminant): a
+ * step that has begun runs to its end.  Memory bounds the intermediate
+ * polynomials (their terms times their coefficients' size, and a bound on a
+ * resultant's terms before it is computed).  0: the default; seconds must
+ * otherwise be finite and > 0 (else IMP_EINPUT). */
 typedef struct imp_budget {
     double seconds; /* default IMP_DEFAULT_SECONDS */
     size_t bytes;   /* default IMP_DEFAULT_BYTES */
@@ -111,10 +116,13 @@ typedef struct imp_result {
     char *f;             /* f expanded, integer coefficients, primitive, positive leading
                             coefficient: "x^2 + y^2 + z^2 - 1" (expression grammar) */
     char *f_tape;        /* the same polynomial as an expression for tape_compile, nested
-                            (Horner) in z, then y, then x: fewer operations */
+                            (Horner) in z, then y, then x: fewer operations ("(y^2 +
+                            x^2)*z - 2*x*y"); the expanded text when the nesting would
+                            pass 500 parentheses */
     size_t n_removed;    /* factors of the eliminant that do not vanish on the
                             parametrization (base points, denominators), removed */
-    char **removed;      /* each as text with its multiplicity: "(x^2 + 1)^2" */
+    char **removed;      /* each as text with its multiplicity: "(x^2 + 1)^2", "y^6",
+                            "x - 1" (the Gröbner basis removes none) */
 } imp_result_t;
 
 /* Implicitize p with method m within budget (NULL: the defaults).  Returns

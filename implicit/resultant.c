@@ -12,12 +12,13 @@
  * implicit.c factors it and keeps the factor that vanishes on the map.
  *
  * A resultant can be identically 0 (the two polynomials have a common factor
- * in a): then the next choice is tried, v before u, and every pivot.  FLINT
- * computes each resultant in one call that cannot be interrupted, so the
- * budget is checked between them, and before each one a bound on its number
- * of terms is held against the memory budget (a degree guard). */
+ * in a): then the next choice is tried, v before u, and every pivot.  The
+ * resultants are computed here, step by step, so the budget is checked within
+ * them (below); before each one a bound on its number of terms is held against
+ * the memory budget too (a degree guard). */
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 
 #include "internal.h"
 
@@ -73,16 +74,223 @@ static int guard(const fmpz_mpoly_t A, const fmpz_mpoly_t B, int var, double liv
     return imp_run_bytes(run, live + terms * 16.0, detail);
 }
 
-/* One resultant with the budget checked around it.  Returns 0, 1 (FLINT
- * could not compute it: give up this choice) or IMP_EBUDGET. */
+/* ---- the resultant, step by step ------------------------------------------------------
+ * FLINT's fmpz_mpoly_resultant is one call that cannot be interrupted: on a
+ * map of moderate degree (denominators of degree 8) a single one ran for
+ * minutes.  So the resultant is computed here by the subresultant
+ * pseudo-remainder sequence of Collins and Brown (Cohen, A Course in
+ * Computational Algebraic Number Theory, algorithm 3.3.7), over Z[other
+ * variables], with the budget checked after every elimination of a leading
+ * term: a step is one pass of multiplications over one polynomial's
+ * coefficients.  The divisions by g h^delta that keep the coefficients small
+ * are exact by the theory of subresultants (checked: fmpz_mpoly_divides). */
+
+/* a polynomial in var as a dense array of coefficients free of var; len 0 = 0 */
+typedef struct upoly {
+    fmpz_mpoly_struct *c;
+    slong len;
+} upoly_t;
+
+static int upoly_from(upoly_t *u, const fmpz_mpoly_t a, int var, const fmpz_mpoly_ctx_t ctx)
+{
+    slong deg = fmpz_mpoly_degree_si(a, var, ctx);
+    u->len = deg + 1; /* 0 for the zero polynomial (degree -1) */
+    u->c = malloc(sizeof *u->c * (size_t)(u->len > 0 ? u->len : 1));
+    if (u->c == NULL)
+        return -1;
+    for (slong i = 0; i < u->len; i++)
+        fmpz_mpoly_init(u->c + i, ctx);
+    if (u->len == 0)
+        return 0;
+    fmpz_mpoly_univar_t U;
+    fmpz_mpoly_univar_init(U, ctx);
+    fmpz_mpoly_to_univar(U, a, var, ctx);
+    for (slong i = 0; i < fmpz_mpoly_univar_length(U, ctx); i++)
+        fmpz_mpoly_univar_swap_term_coeff(u->c + fmpz_mpoly_univar_get_term_exp_si(U, i, ctx), U, i, ctx);
+    fmpz_mpoly_univar_clear(U, ctx);
+    return 0;
+}
+
+static void upoly_clear(upoly_t *u, const fmpz_mpoly_ctx_t ctx)
+{
+    for (slong i = 0; i < u->len; i++)
+        fmpz_mpoly_clear(u->c + i, ctx);
+    free(u->c);
+    u->c = NULL;
+    u->len = 0;
+}
+
+static void upoly_trim(upoly_t *u, const fmpz_mpoly_ctx_t ctx)
+{
+    while (u->len > 0 && fmpz_mpoly_is_zero(u->c + u->len - 1, ctx)) {
+        fmpz_mpoly_clear(u->c + u->len - 1, ctx);
+        u->len--;
+    }
+}
+
+static double upoly_bytes(const upoly_t *u, const fmpz_mpoly_ctx_t ctx)
+{
+    double b = 0;
+    for (slong i = 0; i < u->len; i++)
+        b += imp_poly_bytes(u->c + i, ctx);
+    return b;
+}
+
+/* The budget during a resultant: `live` bytes outside it plus its own. */
+static int step_check(const imp_run_t *run, double live, const upoly_t *a, const upoly_t *b,
+                      const upoly_t *r, const fmpz_mpoly_ctx_t ctx)
+{
+    int rc = imp_run_time(run);
+    if (rc == 0)
+        rc = imp_run_bytes(run, live + upoly_bytes(a, ctx) + upoly_bytes(b, ctx) + upoly_bytes(r, ctx),
+                           "the intermediate polynomials take");
+    return rc;
+}
+
+/* r = prem(a, b) = lc(b)^(deg a - deg b + 1) a mod b, deg a >= deg b >= 1. */
+static int prem(upoly_t *r, const upoly_t *a, const upoly_t *b, double live, const fmpz_mpoly_ctx_t ctx,
+                const imp_run_t *run)
+{
+    slong m = a->len - 1, n = b->len - 1;
+    r->len = a->len;
+    r->c = malloc(sizeof *r->c * (size_t)r->len);
+    if (r->c == NULL) {
+        r->len = 0;
+        return IMP_ENOMEM;
+    }
+    for (slong i = 0; i <= m; i++) {
+        fmpz_mpoly_init(r->c + i, ctx);
+        fmpz_mpoly_set(r->c + i, a->c + i, ctx);
+    }
+    const fmpz_mpoly_struct *lb = b->c + n;
+    fmpz_mpoly_t lead, t;
+    fmpz_mpoly_init(lead, ctx);
+    fmpz_mpoly_init(t, ctx);
+    int rc = 0;
+    for (slong k = m; k >= n && rc == 0; k--) {
+        /* cancel the term of degree k: r = lc(b) r - r_k x^(k-n) b */
+        fmpz_mpoly_swap(lead, r->c + k, ctx);
+        fmpz_mpoly_zero(r->c + k, ctx);
+        for (slong i = 0; i < k; i++) {
+            fmpz_mpoly_mul(r->c + i, r->c + i, lb, ctx);
+            if (i >= k - n && !fmpz_mpoly_is_zero(lead, ctx)) {
+                fmpz_mpoly_mul(t, lead, b->c + i - (k - n), ctx);
+                fmpz_mpoly_sub(r->c + i, r->c + i, t, ctx);
+            }
+        }
+        rc = step_check(run, live, a, b, r, ctx);
+    }
+    fmpz_mpoly_clear(lead, ctx);
+    fmpz_mpoly_clear(t, ctx);
+    upoly_trim(r, ctx);
+    return rc;
+}
+
+/* q = a / b, exact; 0, or 1 when it is not (never, by the theory) */
+static int divide(fmpz_mpoly_t q, const fmpz_mpoly_t a, const fmpz_mpoly_t b, const fmpz_mpoly_ctx_t ctx)
+{
+    if (fmpz_mpoly_is_one(b, ctx)) {
+        fmpz_mpoly_set(q, a, ctx);
+        return 0;
+    }
+    return fmpz_mpoly_divides(q, a, b, ctx) ? 0 : 1;
+}
+
+/* R = Res_var(A, B) up to sign (the sign does not matter here): 0, 1 (could
+ * not be computed), IMP_EBUDGET or IMP_ENOMEM.  A and B nonzero. */
+static int subresultant(fmpz_mpoly_t R, const fmpz_mpoly_t A0, const fmpz_mpoly_t B0, int var,
+                        double live, const fmpz_mpoly_ctx_t ctx, const imp_run_t *run)
+{
+    upoly_t A = {0}, B = {0}, r = {0};
+    int rc = 0;
+    if (upoly_from(&A, A0, var, ctx) || upoly_from(&B, B0, var, ctx)) {
+        upoly_clear(&A, ctx);
+        upoly_clear(&B, ctx);
+        return IMP_ENOMEM;
+    }
+    if (A.len < B.len) {
+        upoly_t t = A;
+        A = B;
+        B = t;
+    }
+    fmpz_mpoly_t g, h, t, q;
+    fmpz_mpoly_init(g, ctx);
+    fmpz_mpoly_init(h, ctx);
+    fmpz_mpoly_init(t, ctx);
+    fmpz_mpoly_init(q, ctx);
+    fmpz_mpoly_one(g, ctx);
+    fmpz_mpoly_one(h, ctx);
+    if (B.len == 1) { /* Res(A, b) = b^deg A */
+        if (!fmpz_mpoly_pow_ui(R, B.c + 0, (ulong)(A.len - 1), ctx))
+            rc = 1;
+        goto done;
+    }
+    for (;;) {
+        slong delta = A.len - B.len;
+        if ((rc = prem(&r, &A, &B, live, ctx, run)))
+            break;
+        if (r.len == 0) { /* a common factor in var */
+            fmpz_mpoly_zero(R, ctx);
+            break;
+        }
+        /* A = B, B = r / (g h^delta) */
+        upoly_clear(&A, ctx);
+        A = B;
+        B = r;
+        r.c = NULL;
+        r.len = 0;
+        if (!fmpz_mpoly_pow_ui(t, h, (ulong)delta, ctx)) {
+            rc = 1;
+            break;
+        }
+        fmpz_mpoly_mul(t, t, g, ctx);
+        for (slong i = 0; i < B.len && rc == 0; i++)
+            if ((rc = divide(B.c + i, B.c + i, t, ctx)) == 0 && i % 8 == 7)
+                rc = step_check(run, live, &A, &B, &r, ctx);
+        if (rc)
+            break;
+        /* g = lc(A), h = h^(1 - delta) g^delta */
+        fmpz_mpoly_set(g, A.c + A.len - 1, ctx);
+        if (delta == 1)
+            fmpz_mpoly_set(h, g, ctx);
+        else if (delta > 1) {
+            if (!fmpz_mpoly_pow_ui(t, g, (ulong)delta, ctx) || !fmpz_mpoly_pow_ui(q, h, (ulong)(delta - 1), ctx) ||
+                divide(h, t, q, ctx)) {
+                rc = 1;
+                break;
+            }
+        }
+        if ((rc = step_check(run, live, &A, &B, &r, ctx)))
+            break;
+        if (B.len == 1) { /* R = lc(B)^deg A / h^(deg A - 1) */
+            slong d = A.len - 1;
+            if (!fmpz_mpoly_pow_ui(t, B.c + 0, (ulong)d, ctx) || !fmpz_mpoly_pow_ui(q, h, (ulong)(d - 1), ctx) ||
+                divide(R, t, q, ctx))
+                rc = 1;
+            break;
+        }
+    }
+done:
+    upoly_clear(&A, ctx);
+    upoly_clear(&B, ctx);
+    upoly_clear(&r, ctx);
+    fmpz_mpoly_clear(g, ctx);
+    fmpz_mpoly_clear(h, ctx);
+    fmpz_mpoly_clear(t, ctx);
+    fmpz_mpoly_clear(q, ctx);
+    return rc;
+}
+
+/* One resultant with the budget checked around and inside it.  Returns 0,
+ * 1 (it could not be computed: give up this choice), IMP_EBUDGET or IMP_ENOMEM. */
 static int resultant(fmpz_mpoly_t R, const fmpz_mpoly_t A, const fmpz_mpoly_t B, int var,
                      double live, const fmpz_mpoly_ctx_t ctx, const imp_run_t *run)
 {
     int rc;
     if ((rc = imp_run_time(run)) || (rc = guard(A, B, var, live, ctx, run)))
         return rc;
-    if (!fmpz_mpoly_resultant(R, A, B, var, ctx))
-        return 1;
+    if ((rc = subresultant(R, A, B, var, live, ctx, run)))
+        return rc;
     strip_parameter_content(R, ctx);
     if ((rc = imp_run_bytes(run, live + imp_poly_bytes(R, ctx), "the intermediate polynomials take")))
         return rc;
@@ -159,6 +367,8 @@ int imp_eliminate_resultant(const imp_param_t *p, const imp_run_t *run, fmpz_mpo
     }
     if (rc == 0)
         imp_move_vars(E, ctx3, R, ctx, to_xyz);
+    else if (rc == IMP_ENOMEM)
+        ivoct_error_at(run->err, 0, 0, "implicitization by resultants: out of memory");
     else if (rc == 1) {
         ivoct_error_at(run->err, 0, 0,
                        "implicitization by resultants: every eliminant is 0 (u then v and v then "

@@ -11,6 +11,7 @@
  * ivoct's expression compiler, and its rigorous enclosure at a point must
  * hold the exact value.  Bounds: random points of the patch must lie in the
  * box. */
+#define _POSIX_C_SOURCE 200809L /* clock_gettime */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -19,6 +20,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include <cmocka.h>
 #include <flint/flint.h>
@@ -331,6 +333,18 @@ static void test_budget(void **state)
     expect_budget(p, IMP_RESULTANT, 0, 1, "implicitization by resultants", "past the memory budget of 1 bytes");
     expect_budget(p, IMP_GROEBNER, 0, 1, "implicitization by Gröbner basis", "past the memory budget of 1 bytes");
     expect_budget(p, IMP_AUTO, 0, 1, "resultants", "Gröbner basis");
+
+    /* the time budget holds inside a resultant: this map's resultant in v
+     * would take minutes (denominators of degree 8) */
+    imp_param_t *hard = parse3("2*u/(1+u^2+v^2)", "2*v/(u^8+v^6)", "(u^8+v^2)/(1+u^2+v^2)");
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    expect_budget(hard, IMP_RESULTANT, 0.3, 0, "implicitization by resultants: past the time budget of 0.3 s", NULL);
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    double took = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+    if (took > 3.0)
+        fail_msg("a budget of 0.3 s took %.2f s", took);
+    imp_param_free(hard);
 
     /* a budget that is not one */
     imp_budget_t bad = {-1, 0};

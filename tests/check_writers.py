@@ -80,6 +80,9 @@ def read_ivo(path):
     t["name"] = r.text()
     t["lets"] = [(r.text(), r.text()) for _ in range(r.u32())]
     t["f"] = r.text()
+    if t["version"] >= 3:  # the parametrization ("" for an implicit scene) and its patch
+        t["param"] = [r.text() for _ in range(3)]
+        t["patch"] = [r.f64() for _ in range(4)]
     n_nodes, n_leaves = r.u32(), r.u32()
     t["nodes"] = np.frombuffer(r.take(4 * n_nodes), dtype="<u4")
     leaves = np.frombuffer(r.take(25 * n_leaves), dtype=np.dtype(
@@ -88,7 +91,7 @@ def read_ivo(path):
     t["slabs"] = (np.frombuffer(r.take(48 * n_leaves), dtype="<f8").reshape(-1, 6)
                   if has_slabs else None)
     check(r.at == len(r.d), "ivo: %d bytes after the tree" % (len(r.d) - r.at))
-    check(t["version"] == 2, "ivo: version %d" % t["version"])
+    check(t["version"] in (2, 3), "ivo: version %d" % t["version"])
     return t
 
 

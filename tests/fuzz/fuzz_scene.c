@@ -17,9 +17,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     scene_t s;
     ivoct_error_t err;
     ivoct_error_clear(&err);
-    /* a small budget: a fuzzed parametrization of high degree is refused in a
-     * moment (the limits are implicit/'s to honour) rather than computed */
-    const scene_options_t opt = {.implicitize = -1, .budget = {.seconds = 0.5, .bytes = 64 << 20}};
+    /* a small budget, so that a fuzzed parametrization of high degree is refused
+     * in a moment rather than computed; and resultants only, whose steps are
+     * short: one S-polynomial reduction of the Groebner basis is a single call of
+     * Calcium's that can last seconds past any budget (implicit/README.md), longer
+     * than libFuzzer's timeout */
+    const scene_options_t opt = {.implicitize = IMP_RESULTANT,
+                                 .budget = {.seconds = 0.5, .bytes = 64 << 20}};
     if (scene_load_with(path, &opt, &s, &err) == 0) {
         if (!s.tape || !s.source.f)
             abort();

@@ -67,16 +67,18 @@ for scene in "$root"/scenes/param-*.ini; do
             rss+=("$(cat "$tmp/rss")")
         done
         imp_s=$(minimum "${it[@]}")
-        rss_kb=$(minimum "${rss[@]}")
+        rss_kb=$(minimum "${rss[@]}" | cut -d. -f1)
         degree=$(field "$tmp/i.json" degree)
         terms=$(field "$tmp/i.json" terms)
-        removed=$("$py" -c 'import json,sys; print(" ".join(json.load(open(sys.argv[1]))["removed"]) or "none")' "$tmp/i.json")
-        echo "$name,$method,$degree,$terms,\"$removed\",$imp_s,$rss_kb,$build_s,$render_s,$leaves" >>"$out"
+        # a long factor is shown by its size (the CSV has it whole)
+        removed_all=$("$py" -c 'import json,sys; print(" ".join(json.load(open(sys.argv[1]))["removed"]) or "none")' "$tmp/i.json")
+        removed=$("$py" -c 'import json,sys; r=json.load(open(sys.argv[1]))["removed"]; print(", ".join(f if len(f) <= 40 else "one of %d terms" % (f.count(" + ") + f.count(" - ") + 1) for f in r) or "none")' "$tmp/i.json")
+        echo "$name,$method,$degree,$terms,\"$removed_all\",$imp_s,$rss_kb,$build_s,$render_s,$leaves" >>"$out"
         "$py" - "$name" "$method" "$degree" "$terms" "$removed" "$imp_s" "$rss_kb" "$build_s" "$render_s" <<'EOF'
 import sys
 n, m, deg, terms, removed, i, rss, b, r = sys.argv[1:]
 i, b, r = float(i), float(b), float(r)
-print(f"| {n} | {m} | {deg} | {terms} | {removed} | {i:.4f} | {int(rss) / 1024:.0f} | {b:.3f} | {r:.3f} | {100 * i / (i + b + r):.1f}% |")
+print(f"| {n} | {m} | {deg} | {terms} | {removed} | {i:.4f} | {float(rss) / 1024:.0f} | {b:.3f} | {r:.3f} | {100 * i / (i + b + r):.1f}% |")
 EOF
     done
 done

@@ -54,6 +54,11 @@ double imp_poly_bytes(const fmpz_mpoly_t a, const fmpz_mpoly_ctx_t ctx);
 void imp_move_vars(fmpz_mpoly_t dst, const fmpz_mpoly_ctx_t dctx, const fmpz_mpoly_t src,
                    const fmpz_mpoly_ctx_t sctx, const int *map);
 
+/* Numerators of d(n/d)/du and d(n/d)/dv: n_u d - n d_u and n_v d - n d_v (the
+ * derivatives are these over d^2) (parse.c). */
+void imp_partials(const fmpz_mpoly_t n, const fmpz_mpoly_t d, const fmpz_mpoly_ctx_t ctx,
+                  fmpz_mpoly_t du, fmpz_mpoly_t dv);
+
 /* The polynomials den_i * t_i - num_i, t = x, y, z, of the elimination ring. */
 void imp_graph_polys(const imp_param_t *p, const fmpz_mpoly_ctx_t ctx6, fmpz_mpoly_struct P[3]);
 

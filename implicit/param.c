@@ -140,26 +140,6 @@ static void grid(double a, double b, int n, double *t)
     t[n] = b;
 }
 
-/* Numerators of the partial derivatives of n/d: n_u d - n d_u and n_v d - n d_v
- * (the derivatives are these over d^2). */
-static void derivative_numerators(const fmpz_mpoly_t n, const fmpz_mpoly_t d,
-                                  const fmpz_mpoly_ctx_t ctx, fmpz_mpoly_t nu, fmpz_mpoly_t nv)
-{
-    fmpz_mpoly_t a, b;
-    fmpz_mpoly_init(a, ctx);
-    fmpz_mpoly_init(b, ctx);
-    fmpz_mpoly_struct *out[2] = {nu, nv};
-    for (slong var = 0; var < 2; var++) {
-        fmpz_mpoly_derivative(a, n, var, ctx);
-        fmpz_mpoly_mul(a, a, d, ctx);
-        fmpz_mpoly_derivative(b, d, var, ctx);
-        fmpz_mpoly_mul(b, b, n, ctx);
-        fmpz_mpoly_sub(out[var], a, b, ctx);
-    }
-    fmpz_mpoly_clear(a, ctx);
-    fmpz_mpoly_clear(b, ctx);
-}
-
 static void powers(iv_t *t, iv_t a, ulong n)
 {
     for (ulong k = 0; k <= n; k++)
@@ -200,7 +180,7 @@ int imp_param_bounds(const imp_param_t *p, const double u[2], const double v[2],
     fmpz_mpoly_init(du, p->ctx);
     fmpz_mpoly_init(dv, p->ctx);
     for (int i = 0; i < 3 && rc == IMP_OK; i++) {
-        derivative_numerators(p->num + i, p->den + i, p->ctx, du, dv);
+        imp_partials(p->num + i, p->den + i, p->ctx, du, dv);
         if (ivpoly_make(&q[i][0], p->num + i, p->ctx, maxe) ||
             ivpoly_make(&q[i][1], p->den + i, p->ctx, maxe) ||
             ivpoly_make(&q[i][2], du, p->ctx, maxe) || ivpoly_make(&q[i][3], dv, p->ctx, maxe))

@@ -661,8 +661,8 @@ static int parse_coordinate(const char *text, const fmpz_mpoly_ctx_t ctx, fmpz_m
 /* ---- the map as a whole: is its image a surface? -------------------------------------- */
 
 /* Numerators of dX/du and dX/dv: (n' d - n d') / d^2, the positive d^2 left out. */
-static void partials(const fmpz_mpoly_t n, const fmpz_mpoly_t d, const fmpz_mpoly_ctx_t ctx,
-                     fmpz_mpoly_t du, fmpz_mpoly_t dv)
+void imp_partials(const fmpz_mpoly_t n, const fmpz_mpoly_t d, const fmpz_mpoly_ctx_t ctx,
+                  fmpz_mpoly_t du, fmpz_mpoly_t dv)
 {
     fmpz_mpoly_t a, b;
     fmpz_mpoly_init(a, ctx);
@@ -690,7 +690,7 @@ static int jacobian_rank(const imp_param_t *p)
     for (int i = 0; i < 3; i++) {
         fmpz_mpoly_init(du[i], ctx);
         fmpz_mpoly_init(dv[i], ctx);
-        partials(p->num + i, p->den + i, ctx, du[i], dv[i]);
+        imp_partials(p->num + i, p->den + i, ctx, du[i], dv[i]);
         if (!fmpz_mpoly_is_zero(du[i], ctx) || !fmpz_mpoly_is_zero(dv[i], ctx))
             rank = 1;
     }

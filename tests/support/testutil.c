@@ -110,7 +110,8 @@ int tu_scene_files(char ***paths)
     globfree(&g);
     *paths = list;
     if (n < TU_N_SCENE_FILES)
-        fail_msg("%s: %d scene files, expected at least %d (one per surface of docs/surfaces.md)",
+        fail_msg("%s: %d scene files, expected at least %d (one per surface of docs/surfaces.md, and the "
+                 "parametric ones)",
                  pattern, n, TU_N_SCENE_FILES);
     return n;
 }

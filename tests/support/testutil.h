@@ -60,8 +60,9 @@ double tu_scale(void);
 /* The source tree: IVOCT_SOURCE_DIR, else ".". */
 const char *tu_source_dir(void);
 
-/* How many scene files scenes/ holds: one per surface of docs/surfaces.md. */
-#define TU_N_SCENE_FILES 19
+/* How many scene files scenes/ holds: one per surface of docs/surfaces.md (19), and
+ * the six parametric scenes (scenes/param-*.ini). */
+#define TU_N_SCENE_FILES 25
 
 /* Paths of the scene files (scenes/NAME.ini), sorted; returns the count, *paths
  * malloc'd (free with tu_free_list).  Fails the current test when there are

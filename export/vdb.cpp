@@ -15,6 +15,7 @@
 #include <openvdb/tools/Morphology.h>
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tools/VolumeToMesh.h>
+#include <openvdb/tree/LeafManager.h>
 
 #include "internal.hpp"
 
@@ -145,55 +146,52 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
     g->tree().voxelizeActiveTiles();
 
     // values at the voxel centres: f / |grad f|, clamped; outside the surface
-    // leaves the sign is the octree's class (the value the voxel had: -bg or bg)
-    std::vector<Coord> coords;
-    std::vector<signed char> sign;  // 0: in a surface leaf
-    coords.reserve(g->tree().activeVoxelCount());
-    auto sacc = surface.getConstAccessor();
-    for (auto it = g->tree().cbeginValueOn(); it; ++it) {
-        coords.push_back(it.getCoord());
-        sign.push_back(sacc.isValueOn(it.getCoord()) ? 0 : *it < 0 ? -1 : 1);
-    }
-    // f and its gradient at every band voxel: the one evaluation the build has
-    // not made (it knows f over cells, not at voxel centres), in chunks over threads
-    const size_t n = coords.size(), chunk = 4096;
-    std::vector<float> value(n);
-    const int threads = writer_threads(t, (n + chunk - 1) / chunk);
+    // leaves the sign is the octree's class (the value the voxel had: -bg or bg).
+    // f and its gradient at every band voxel are the one evaluation the build
+    // has not made (it knows f over cells, not at voxel centres): leaf node by
+    // leaf node of the grid (up to 512 voxels, one evaluator pass), over threads.
+    openvdb::tree::LeafManager<openvdb::FloatTree> nodes(g->tree());
+    const size_t n_nodes = nodes.leafCount(), chunk = 16;
+    const int threads = writer_threads(t, (n_nodes + chunk - 1) / chunk);
     std::vector<std::unique_ptr<Workspace>> ws;
     for (int w = 0; w < threads; w++)
         ws.push_back(std::make_unique<Workspace>(tape));
-    parallel_chunks(n, chunk, threads, [&](size_t s, size_t e, int w) {
-        const size_t m = e - s;
-        std::vector<iv_box_t> boxes(m);
-        std::vector<iv_grad_t> out(m);
-        for (size_t k = 0; k < m; k++) {
-            const Coord &c = coords[s + k];
-            double p[3];
-            for (int a = 0; a < 3; a++)
-                p[a] = fr.lo[a] + ((double)c[a] + 0.5) * fr.h[a];
-            boxes[k] = iv_box_t{iv_point(p[0]), iv_point(p[1]), iv_point(p[2])};
-        }
-        tape_eval_grad(tape, ws[(size_t)w]->ws, m, boxes.data(), out.data());
-        for (size_t k = 0; k < m; k++) {
-            const iv_grad_t &q = out[k];
-            double f = iv_mid(q.v);
-            double gx = iv_mid(q.dx), gy = iv_mid(q.dy), gz = iv_mid(q.dz);
-            double gn = std::sqrt(gx * gx + gy * gy + gz * gz);
-            double d = gn > 0 && std::isfinite(gn) ? f / gn : f > 0 ? bg : f < 0 ? -bg : 0;
-            if (std::isnan(d))  // f undefined here: outside
-                d = bg;
-            d = std::max(-(double)bg, std::min((double)bg, d));
-            int cls = sign[s + k];
-            if (cls != 0 && !(d * cls > 0))  // the certified class wins; keep |d| if any
-                d = cls * std::max(std::fabs(d), 1e-3 * fr.max_h());
-            value[s + k] = (float)d;
+    parallel_chunks(n_nodes, chunk, threads, [&](size_t s, size_t e, int w) {
+        auto sacc = surface.getConstAccessor();  // an accessor per thread: they cache
+        constexpr size_t N = openvdb::FloatTree::LeafNodeType::SIZE;
+        std::vector<iv_box_t> boxes(N);
+        std::vector<iv_grad_t> out(N);
+        std::vector<openvdb::Index> offset(N);
+        std::vector<signed char> sign(N);  // 0: in a surface leaf
+        for (size_t i = s; i < e; i++) {
+            auto &node = nodes.leaf(i);
+            size_t m = 0;
+            for (auto it = node.cbeginValueOn(); it; ++it, m++) {
+                const Coord c = it.getCoord();
+                offset[m] = it.pos();
+                sign[m] = sacc.isValueOn(c) ? 0 : *it < 0 ? -1 : 1;
+                double p[3];
+                for (int a = 0; a < 3; a++)
+                    p[a] = fr.lo[a] + ((double)c[a] + 0.5) * fr.h[a];
+                boxes[m] = iv_box_t{iv_point(p[0]), iv_point(p[1]), iv_point(p[2])};
+            }
+            tape_eval_grad(tape, ws[(size_t)w]->ws, m, boxes.data(), out.data());
+            for (size_t k = 0; k < m; k++) {
+                const iv_grad_t &q = out[k];
+                double f = iv_mid(q.v);
+                double gx = iv_mid(q.dx), gy = iv_mid(q.dy), gz = iv_mid(q.dz);
+                double gn = std::sqrt(gx * gx + gy * gy + gz * gz);
+                double d = gn > 0 && std::isfinite(gn) ? f / gn : f > 0 ? bg : f < 0 ? -bg : 0;
+                if (std::isnan(d))  // f undefined here: outside
+                    d = bg;
+                d = std::max(-(double)bg, std::min((double)bg, d));
+                int cls = sign[k];
+                if (cls != 0 && !(d * cls > 0))  // the certified class wins; keep |d| if any
+                    d = cls * std::max(std::fabs(d), 1e-3 * fr.max_h());
+                node.setValueOnly(offset[k], (float)d);
+            }
         }
     });
-    size_t k = 0;
-    for (auto it = g->tree().beginValueOn(); it; ++it)
-        it.setValue(value[k++]);
-    if (k != n)
-        throw Error("sdf: the band changed while it was filled");
     openvdb::tools::pruneLevelSet(g->tree());
     return g;
 }

@@ -209,67 +209,132 @@ inline Corner leaf_corner(const oct_tree_t *tree, size_t i, int c)
     return {(ix + (c & 1)) * s, (iy + (c >> 1 & 1)) * s, (iz + (c >> 2 & 1)) * s};
 }
 
-// The distinct corners of the leaves in (z, y, x) order, and for corner c of
-// leaf i its index in them in conn[8 i + c].  Up to depth 20 a corner is one
-// 3 (D + 1)-bit key and the sort a radix sort of (key, position) pairs (linear,
-// no comparisons); deeper, a comparison sort.
-std::vector<Corner> distinct_corners(const oct_tree_t *tree, vtkIdType *conn)
+// The points of the .vtu: the distinct leaf corners in (z, y, x) order, written
+// into `points`, and for corner c of leaf i its index in them in conn[8 i + c].
+//
+// Up to depth 15 the corners are bucketed by z (one pass over the leaves), and
+// each z slice is sorted on its own by a radix sort of 64-bit words (y, x) << 32
+// | corner number: a slice fits in cache, and slices are independent, so they
+// go over the threads.  Deeper (or more than 2^32 corners), a comparison sort.
+void shared_points(const oct_tree_t *tree, vtkIdType *conn, vtkPoints *points)
 {
     const size_t n = tree->n_leaves, m = 8 * n;
-    const int bits = tree->depth + 1;
-    std::vector<Corner> unique;
-    if (3 * bits > 64 || m > UINT32_MAX) {
+    const int D = tree->depth, bits = D + 1;
+    auto coord = [tree, D](int axis, uint64_t i) {
+        return oct_coord(tree->box[2 * axis], tree->box[2 * axis + 1], i, D);
+    };
+    if (2 * bits + 32 > 64 || m > UINT32_MAX) {
         std::vector<Corner> corners(m);
         for (size_t i = 0; i < n; i++)
             for (int c = 0; c < 8; c++)
                 corners[8 * i + c] = leaf_corner(tree, i, c);
-        unique = corners;
+        std::vector<Corner> unique = corners;
         std::sort(unique.begin(), unique.end());
         unique.erase(std::unique(unique.begin(), unique.end()), unique.end());
         for (size_t k = 0; k < m; k++)
             conn[k] = (vtkIdType)(std::lower_bound(unique.begin(), unique.end(), corners[k]) -
                                   unique.begin());
-        return unique;
+        points->SetNumberOfPoints((vtkIdType)unique.size());
+        double *xyz = static_cast<double *>(points->GetVoidPointer(0));
+        for (size_t p = 0; p < unique.size(); p++) {
+            xyz[3 * p] = coord(0, unique[p].x);
+            xyz[3 * p + 1] = coord(1, unique[p].y);
+            xyz[3 * p + 2] = coord(2, unique[p].z);
+        }
+        return;
     }
-    std::vector<uint64_t> key(m), key2(m);
-    std::vector<uint32_t> pos(m), pos2(m);
-    for (size_t i = 0; i < n; i++)
-        for (int c = 0; c < 8; c++) {
-            Corner k = leaf_corner(tree, i, c);
-            key[8 * i + c] = (uint64_t)k.z << (2 * bits) | (uint64_t)k.y << bits | k.x;
-            pos[8 * i + c] = (uint32_t)(8 * i + c);
-        }
-    const int digit = 11, total = 3 * bits;
-    std::vector<size_t> count((size_t)1 << digit);
-    for (int shift = 0; shift < total; shift += digit) {  // least significant digit first
-        std::fill(count.begin(), count.end(), 0);
-        const uint64_t mask = ((uint64_t)1 << digit) - 1;
-        for (size_t k = 0; k < m; k++)
-            count[(key[k] >> shift) & mask]++;
-        size_t sum = 0;
-        for (size_t &c : count) {
-            size_t v = c;
-            c = sum;
-            sum += v;
-        }
-        for (size_t k = 0; k < m; k++) {
-            size_t to = count[(key[k] >> shift) & mask]++;
-            key2[to] = key[k];
-            pos2[to] = pos[k];
-        }
-        key.swap(key2);
-        pos.swap(pos2);
+    const size_t n_slices = ((size_t)1 << D) + 1;
+    // the slices' extents in `entries` (a counting sort by z)
+    std::vector<size_t> start(n_slices + 1, 0);
+    for (size_t i = 0; i < n; i++) {
+        const oct_leaf_t &l = tree->leaves[i];
+        uint32_t ix, iy, iz;
+        const int depth = oct_leaf_depth(&l);
+        oct_unmorton(oct_leaf_code(&l), depth, &ix, &iy, &iz);
+        const uint32_t s = 1u << (D - depth);
+        start[(size_t)iz * s + 1] += 4;
+        start[(size_t)(iz + 1) * s + 1] += 4;
     }
-    std::vector<uint64_t>().swap(key2);
-    std::vector<uint32_t>().swap(pos2);
+    for (size_t z = 0; z < n_slices; z++)
+        start[z + 1] += start[z];
+    std::unique_ptr<uint64_t[]> entries(new uint64_t[m]);
+    {
+        std::vector<size_t> fill(start.begin(), start.end() - 1);
+        for (size_t i = 0; i < n; i++) {
+            const oct_leaf_t &l = tree->leaves[i];
+            uint32_t ix, iy, iz;
+            const int depth = oct_leaf_depth(&l);
+            oct_unmorton(oct_leaf_code(&l), depth, &ix, &iy, &iz);
+            const uint32_t s = 1u << (D - depth);
+            for (uint32_t c = 0; c < 8; c++) {
+                const uint64_t x = (ix + (c & 1)) * s, y = (iy + (c >> 1 & 1)) * s;
+                const size_t z = (size_t)(iz + (c >> 2 & 1)) * s;
+                entries[fill[z]++] = (y << bits | x) << 32 | (uint64_t)(8 * i + c);
+            }
+        }
+    }
+    const int threads = writer_threads(tree, n_slices);
+    const size_t chunk = (n_slices + 64 * (size_t)threads - 1) / (64 * (size_t)threads);
+    // sort every slice, count its distinct corners
+    std::vector<size_t> first_point(n_slices + 1, 0);
+    parallel_chunks(n_slices, chunk, threads, [&](size_t z0, size_t z1, int) {
+        const int digit = 11;
+        std::vector<uint64_t> tmp;
+        std::vector<uint32_t> count((size_t)1 << digit);
+        for (size_t z = z0; z < z1; z++) {
+            uint64_t *e = entries.get() + start[z];
+            const size_t k = start[z + 1] - start[z];
+            if (k == 0)
+                continue;
+            tmp.resize(k);
+            uint64_t *from = e, *to = tmp.data();
+            for (int shift = 32; shift < 32 + 2 * bits; shift += digit) {  // LSD: stable
+                std::fill(count.begin(), count.end(), 0);
+                const uint64_t mask = ((uint64_t)1 << digit) - 1;
+                for (size_t j = 0; j < k; j++)
+                    count[(from[j] >> shift) & mask]++;
+                uint32_t sum = 0;
+                for (uint32_t &c : count) {
+                    const uint32_t v = c;
+                    c = sum;
+                    sum += v;
+                }
+                for (size_t j = 0; j < k; j++)
+                    to[count[(from[j] >> shift) & mask]++] = from[j];
+                std::swap(from, to);
+            }
+            if (from != e)
+                std::copy(from, from + k, e);
+            size_t distinct = 1;
+            for (size_t j = 1; j < k; j++)
+                distinct += (e[j] >> 32) != (e[j - 1] >> 32);
+            first_point[z + 1] = distinct;
+        }
+    });
+    for (size_t z = 0; z < n_slices; z++)
+        first_point[z + 1] += first_point[z];
+    points->SetNumberOfPoints((vtkIdType)first_point[n_slices]);
+    double *xyz = static_cast<double *>(points->GetVoidPointer(0));
+    // number the points, slice by slice from its first
     const uint64_t lmask = ((uint64_t)1 << bits) - 1;
-    for (size_t k = 0; k < m; k++) {
-        if (k == 0 || key[k] != key[k - 1])
-            unique.push_back({(uint32_t)(key[k] & lmask), (uint32_t)(key[k] >> bits & lmask),
-                              (uint32_t)(key[k] >> (2 * bits))});
-        conn[pos[k]] = (vtkIdType)(unique.size() - 1);
-    }
-    return unique;
+    parallel_chunks(n_slices, chunk, threads, [&](size_t z0, size_t z1, int) {
+        for (size_t z = z0; z < z1; z++) {
+            const uint64_t *e = entries.get() + start[z];
+            const size_t k = start[z + 1] - start[z];
+            const double zc = coord(2, z);
+            size_t p = first_point[z] - 1;
+            for (size_t j = 0; j < k; j++) {
+                const uint64_t key = e[j] >> 32;
+                if (j == 0 || key != e[j - 1] >> 32) {
+                    p++;
+                    xyz[3 * p] = coord(0, key & lmask);
+                    xyz[3 * p + 1] = coord(1, key >> bits);
+                    xyz[3 * p + 2] = zc;
+                }
+                conn[(uint32_t)e[j]] = (vtkIdType)p;
+            }
+        }
+    });
 }
 
 }  // namespace
@@ -277,7 +342,6 @@ std::vector<Corner> distinct_corners(const oct_tree_t *tree, vtkIdType *conn)
 // ---- .vtu -----------------------------------------------------------------------------
 void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *path)
 {
-    const int D = tree->depth;
     const size_t n = tree->n_leaves;
     // corners in integer coordinates of the max depth, shared between neighbours:
     // the points are the distinct corners in (z, y, x) order
@@ -288,16 +352,7 @@ void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *
     connectivity->SetNumberOfValues((vtkIdType)(8 * n));
     for (size_t i = 0; i <= n; i++)
         offsets->SetValue((vtkIdType)i, (vtkIdType)(8 * i));
-    vtkIdType *conn = connectivity->GetPointer(0);
-    std::vector<Corner> unique = distinct_corners(tree, conn);
-    points->SetNumberOfPoints((vtkIdType)unique.size());
-    double *xyz = static_cast<double *>(points->GetVoidPointer(0));
-    for (size_t p = 0; p < unique.size(); p++) {
-        xyz[3 * p] = oct_coord(tree->box[0], tree->box[1], unique[p].x, D);
-        xyz[3 * p + 1] = oct_coord(tree->box[2], tree->box[3], unique[p].y, D);
-        xyz[3 * p + 2] = oct_coord(tree->box[4], tree->box[5], unique[p].z, D);
-    }
-    std::vector<Corner>().swap(unique);
+    shared_points(tree, connectivity->GetPointer(0), points);
     vtkNew<vtkCellArray> cells;
     cells->SetData(offsets, connectivity);
     vtkNew<vtkUnsignedCharArray> types;
@@ -317,12 +372,21 @@ void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *
     for (vtkDataArray *a : {(vtkDataArray *)depth, (vtkDataArray *)f_lo, (vtkDataArray *)f_hi,
                             (vtkDataArray *)error_bound})
         a->SetNumberOfTuples((vtkIdType)n);
-    for (uint32_t i = 0; i < n; i++) {
-        const oct_leaf_t &l = tree->leaves[i];
-        depth->SetValue(i, oct_leaf_depth(&l));
-        f_lo->SetValue(i, l.f_lo);
-        f_hi->SetValue(i, l.f_hi);
-        error_bound->SetValue(i, oct_leaf_error_bound(tree, i));
+    {
+        int *depth_v = depth->GetPointer(0);
+        double *lo = f_lo->GetPointer(0), *hi = f_hi->GetPointer(0);
+        double *eb = error_bound->GetPointer(0);
+        const size_t chunk = 65536;
+        parallel_chunks(n, chunk, writer_threads(tree, (n + chunk - 1) / chunk),
+                        [&](size_t s, size_t e, int) {
+                            for (size_t i = s; i < e; i++) {
+                                const oct_leaf_t &l = tree->leaves[i];
+                                depth_v[i] = oct_leaf_depth(&l);
+                                lo[i] = l.f_lo;
+                                hi[i] = l.f_hi;
+                                eb[i] = oct_leaf_error_bound(tree, (uint32_t)i);
+                            }
+                        });
     }
     vtkCellData *cd = ug->GetCellData();
     cd->AddArray(depth);
@@ -441,33 +505,6 @@ void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_
     if (nodes.size() != total)
         throw Error("HyperTreeGrid: unexpected node numbering");
 
-    // f over every cell and at its centre, in chunks over threads (a box's
-    // result does not depend on its batch)
-    std::vector<double> fc(total);
-    std::vector<iv_t> fr(total);
-    {
-        const size_t chunk = 4096;
-        const int threads = writer_threads(tree, (total + chunk - 1) / chunk);
-        std::vector<std::unique_ptr<Workspace>> ws;
-        for (int w = 0; w < threads; w++)
-            ws.push_back(std::make_unique<Workspace>(tape));
-        parallel_chunks(total, chunk, threads, [&](size_t s, size_t e, int w) {
-            const size_t m = e - s;
-            std::vector<iv_box_t> boxes(m);
-            std::vector<double> cx(m), cy(m), cz(m);
-            for (size_t k = 0; k < m; k++) {
-                const HtgNode &n = nodes[s + k];
-                boxes[k] = cell_box(tree, n.depth, n.ix, n.iy, n.iz);
-                cx[k] = 0.5 * boxes[k].x.lo + 0.5 * boxes[k].x.hi;
-                cy[k] = 0.5 * boxes[k].y.lo + 0.5 * boxes[k].y.hi;
-                cz[k] = 0.5 * boxes[k].z.lo + 0.5 * boxes[k].z.hi;
-            }
-            tape_eval_interval(tape, ws[(size_t)w]->ws, m, boxes.data(), fr.data() + s);
-            tape_eval_point(tape, ws[(size_t)w]->ws, m, cx.data(), cy.data(), cz.data(),
-                            fc.data() + s);
-        });
-    }
-
     vtkNew<vtkIntArray> depth;
     vtkNew<vtkDoubleArray> f_center, f_lo, f_hi;
     vtkNew<vtkUnsignedCharArray> surf;
@@ -481,31 +518,59 @@ void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_
     for (vtkDataArray *a : {(vtkDataArray *)depth, (vtkDataArray *)f_center, (vtkDataArray *)f_lo,
                             (vtkDataArray *)f_hi, (vtkDataArray *)surf, (vtkDataArray *)cls})
         a->SetNumberOfTuples((vtkIdType)total);
-    for (size_t i = 0; i < total; i++) {
-        vtkIdType id = (vtkIdType)i;
-        oct_node_t w = tree->nodes[nodes[i].node];
-        double lo = fr[i].lo, hi = fr[i].hi;
-        signed char k;
-        switch (OCT_NODE_KIND(w)) {
-        case OCT_LEAF: {
-            const oct_leaf_t &l = tree->leaves[OCT_NODE_VALUE(w)];
-            lo = l.f_lo, hi = l.f_hi;
-            k = CLASS_SURFACE;
-            break;
-        }
-        case OCT_INTERIOR:
-            k = CLASS_SPLIT;
-            break;
-        default:
-            k = (signed char)OCT_NODE_VALUE(w);
-            break;
-        }
-        depth->SetValue(id, nodes[i].depth);
-        f_center->SetValue(id, fc[i]);
-        f_lo->SetValue(id, lo);
-        f_hi->SetValue(id, hi);
-        surf->SetValue(id, surface[i]);
-        cls->SetValue(id, k);
+    // f over every cell and at its centre (the leaves keep the build's range),
+    // and the other arrays, in chunks over threads (a box's result does not
+    // depend on its batch)
+    {
+        int *depth_v = depth->GetPointer(0);
+        double *fc = f_center->GetPointer(0), *lo = f_lo->GetPointer(0), *hi = f_hi->GetPointer(0);
+        unsigned char *surf_v = surf->GetPointer(0);
+        signed char *cls_v = cls->GetPointer(0);
+        const size_t chunk = 4096;
+        const int threads = writer_threads(tree, (total + chunk - 1) / chunk);
+        std::vector<std::unique_ptr<Workspace>> ws;
+        for (int w = 0; w < threads; w++)
+            ws.push_back(std::make_unique<Workspace>(tape));
+        parallel_chunks(total, chunk, threads, [&](size_t s, size_t e, int w) {
+            const size_t m = e - s;
+            std::vector<iv_box_t> boxes(m);
+            std::vector<iv_t> fr(m);
+            std::vector<double> cx(m), cy(m), cz(m);
+            for (size_t k = 0; k < m; k++) {
+                const HtgNode &n = nodes[s + k];
+                boxes[k] = cell_box(tree, n.depth, n.ix, n.iy, n.iz);
+                cx[k] = 0.5 * boxes[k].x.lo + 0.5 * boxes[k].x.hi;
+                cy[k] = 0.5 * boxes[k].y.lo + 0.5 * boxes[k].y.hi;
+                cz[k] = 0.5 * boxes[k].z.lo + 0.5 * boxes[k].z.hi;
+            }
+            tape_eval_interval(tape, ws[(size_t)w]->ws, m, boxes.data(), fr.data());
+            tape_eval_point(tape, ws[(size_t)w]->ws, m, cx.data(), cy.data(), cz.data(), fc + s);
+            for (size_t k = 0; k < m; k++) {
+                const size_t i = s + k;
+                const oct_node_t node = tree->nodes[nodes[i].node];
+                double l = fr[k].lo, h = fr[k].hi;
+                signed char c;
+                switch (OCT_NODE_KIND(node)) {
+                case OCT_LEAF: {
+                    const oct_leaf_t &leaf = tree->leaves[OCT_NODE_VALUE(node)];
+                    l = leaf.f_lo, h = leaf.f_hi;
+                    c = CLASS_SURFACE;
+                    break;
+                }
+                case OCT_INTERIOR:
+                    c = CLASS_SPLIT;
+                    break;
+                default:
+                    c = (signed char)OCT_NODE_VALUE(node);
+                    break;
+                }
+                depth_v[i] = nodes[i].depth;
+                lo[i] = l;
+                hi[i] = h;
+                surf_v[i] = surface[i];
+                cls_v[i] = c;
+            }
+        });
     }
     vtkCellData *cd = htg->GetCellData();
     cd->AddArray(depth);

@@ -165,8 +165,11 @@ extern "C" void __sanitizer_set_death_callback(void (*)(void)) __attribute__((we
 // the file's size beyond what it holds at the fork (RLIMIT_DATA, counted from VmData so
 // that the sanitizers' reserved shadow memory does not count); past that an allocation
 // fails, which the readers report (bad_alloc) or die of.
-// CPU seconds the child may take (the depth-9 exports of the tests read in about 1 s)
+// CPU seconds the child may take (the depth-9 exports of the tests read in about 1 s),
+// and wall-clock seconds: a child that waits forever (a lock inherited at the fork, see
+// below) uses no CPU, so only an alarm ends it
 constexpr rlim_t CHILD_CPU_SECONDS = 120;
+constexpr unsigned CHILD_WALL_SECONDS = 600;
 
 void limit_child_memory(const char *path)
 {
@@ -264,12 +267,14 @@ int info_in_child(Format fmt, const char *path, FILE *out, ivoct_error_t *err)
         // child does not have: there they take their action (a Ctrl-C ends both)
         sigset_t stop;
         sigemptyset(&stop);
-        for (int sig : {SIGINT, SIGTERM, SIGHUP})
+        for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGALRM})
             sigaddset(&stop, sig);
+        std::signal(SIGALRM, SIG_DFL);
         sigprocmask(SIG_UNBLOCK, &stop, nullptr);
+        alarm(CHILD_WALL_SECONDS);
         limit_child_memory(path);
-        // and time: a reader caught in a loop by a crafted file is ended by SIGXCPU
-        // (then reported like a crash); real exports read in seconds
+        // and time: a reader caught in a loop by a crafted file is ended by SIGXCPU, one
+        // that waits forever by SIGALRM; real exports read in seconds
         struct rlimit cpu = {CHILD_CPU_SECONDS, CHILD_CPU_SECONDS + 1};
         setrlimit(RLIMIT_CPU, &cpu);
         // what a dying library prints (glibc's "free(): invalid pointer", a sanitizer's
@@ -317,7 +322,12 @@ int info_in_child(Format fmt, const char *path, FILE *out, ivoct_error_t *err)
     while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
     }
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || got.empty()) {
-        if (WIFSIGNALED(status))
+        if (WIFSIGNALED(status) && (WTERMSIG(status) == SIGALRM || WTERMSIG(status) == SIGXCPU))
+            ivoct_error_set(err, "cannot read %s: %s's reader did not finish in %u s%s", path, lib,
+                            WTERMSIG(status) == SIGALRM ? CHILD_WALL_SECONDS
+                                                        : (unsigned)CHILD_CPU_SECONDS,
+                            WTERMSIG(status) == SIGALRM ? "" : " of CPU");
+        else if (WIFSIGNALED(status))
             ivoct_error_set(err, "cannot read %s: corrupt file (%s's reader died of signal %d)",
                             path, lib, WTERMSIG(status));
         else

@@ -1,6 +1,7 @@
 /* Benchmark: nanoseconds per tape clause and per box (or point) for the point,
- * interval, interval+gradient and affine (ILIE) evaluators, with calls of
- * TAPE_BATCH boxes, on scene files, for every SIMD path this machine runs
+ * interval, interval+gradient, affine (ILIE) and ray (value, derivative along
+ * the ray and rounding bound: tape_eval_ray) evaluators, with calls of
+ * TAPE_BATCH boxes (ray: segments of one ray through the scene box), on scene files, for every SIMD path this machine runs
  * (side by side in one run).  Usage: ivoct_bench_eval [--seconds S] SCENE...
  * Prints one row per scene and path, and the ratios interval/point and
  * gradient/interval. */
@@ -29,6 +30,9 @@ typedef struct {
     double px[NBOX], py[NBOX], pz[NBOX];
     iv_t F[NBOX];
     iv_grad_t G[NBOX];
+    double o[3], d[3];
+    iv_t T[NBOX], dT[NBOX];
+    double rnd[NBOX];
     double P[NBOX];
     ilie_ws_t *iws;
     ilie_t A[NBOX];
@@ -50,6 +54,13 @@ static void run_grad(bench_t *b)
 {
     for (int i = 0; i < NBOX; i += TAPE_BATCH)
         tape_eval_grad(b->t, b->ws, TAPE_BATCH, b->box + i, b->G + i);
+}
+
+static void run_ray(bench_t *b)
+{
+    for (int i = 0; i < NBOX; i += TAPE_BATCH)
+        tape_eval_ray(b->t, b->ws, b->o, b->d, TAPE_BATCH, b->T + i, b->F + i, b->dT + i,
+                      b->rnd + i);
 }
 
 static void run_affine(bench_t *b)
@@ -89,8 +100,8 @@ int main(int argc, char **argv)
         fprintf(stderr, "usage: ivoct_bench_eval [--seconds S] SCENE...\n");
         return 2;
     }
-    printf("%-26s %-9s %7s %9s %11s %9s %9s %7s %8s\n", "scene", "simd", "clauses", "point_ns",
-           "interval_ns", "grad_ns", "affine_ns", "iv/pt", "grad/iv");
+    printf("%-26s %-9s %7s %9s %11s %9s %9s %9s %7s %8s\n", "scene", "simd", "clauses",
+           "point_ns", "interval_ns", "grad_ns", "ray_ns", "affine_ns", "iv/pt", "grad/iv");
     char paths[128];
     snprintf(paths, sizeof paths, "%s", tape_simd_paths());
     bench_t *b = malloc(sizeof *b);
@@ -122,6 +133,15 @@ int main(int argc, char **argv)
             b->box[i] = (iv_box_t){{c[0], c[0] + w[0]}, {c[1], c[1] + w[1]}, {c[2], c[2] + w[2]}};
             b->px[i] = c[0], b->py[i] = c[1], b->pz[i] = c[2];
         }
+        /* a ray along the box's diagonal, in NBOX segments of 1/64 of it at
+         * random places */
+        for (int k = 0; k < 3; k++)
+            b->o[k] = s.box[2 * k], b->d[k] = s.box[2 * k + 1] - s.box[2 * k];
+        for (int i = 0; i < NBOX; i++) {
+            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+            double u = (double)(seed >> 11) * 0x1p-53 * (1 - 1.0 / 64);
+            b->T[i] = iv_make(u, u + 1.0 / 64);
+        }
         /* the affine evaluator has one path: measured once */
         double af = measure(b, run_affine, seconds);
         char list[128];
@@ -132,8 +152,9 @@ int main(int argc, char **argv)
             double pt = measure(b, run_point, seconds);
             double iv = measure(b, run_interval, seconds);
             double gr = measure(b, run_grad, seconds);
-            printf("%-26s %-9s %7u %9.3f %11.3f %9.3f %9.3f %7.2f %8.2f\n", s.source.name, p,
-                   s.tape->n, pt, iv, gr, af, iv / pt, gr / iv);
+            double ry = measure(b, run_ray, seconds);
+            printf("%-26s %-9s %7u %9.3f %11.3f %9.3f %9.3f %9.3f %7.2f %8.2f\n", s.source.name,
+                   p, s.tape->n, pt, iv, gr, ry, af, iv / pt, gr / iv);
         }
         tape_simd_select(NULL, NULL);
         tape_ws_free(b->ws);

@@ -15,18 +15,15 @@
 #include "eval_internal.h"
 
 #define B TAPE_BATCH
-/* lanes of the ray evaluator's pass (array-of-structs, below) */
-#define RL 8
 
 struct tape_ws {
     uint32_t max_clauses;
     double *point;      /* max_clauses * B */
     double *lo, *hi;    /* max_clauses * B each */
-    double *grad;       /* max_clauses * G_ARRAYS * B */
-    double *in;         /* 6 * B: the inputs of a pass */
+    double *grad;       /* max_clauses * G_ARRAYS * B (also the ray pass's R_ARRAYS) */
+    double *in;         /* 12 * B: the inputs of a pass (the ray pass's directions and
+                           rounding radii in the second half) */
     uint8_t *deps;      /* max_clauses: tape_deps of the gradient pass */
-    iv_t *rv, *rd;      /* max_clauses * RL: values, derivatives along d (tape_eval_ray) */
-    double *rm;         /* max_clauses * RL: rounding magnitudes (tape_eval_ray) */
 };
 
 tape_ws_t *tape_ws_new(uint32_t max_clauses)
@@ -42,13 +39,9 @@ tape_ws_t *tape_ws_new(uint32_t max_clauses)
     ws->lo = malloc(n * B * sizeof *ws->lo);
     ws->hi = malloc(n * B * sizeof *ws->hi);
     ws->grad = malloc(n * G_ARRAYS * B * sizeof *ws->grad);
-    ws->in = malloc(6 * B * sizeof *ws->in);
+    ws->in = malloc(12 * B * sizeof *ws->in);
     ws->deps = malloc(n);
-    ws->rv = malloc(n * RL * sizeof *ws->rv);
-    ws->rd = malloc(n * RL * sizeof *ws->rd);
-    ws->rm = malloc(n * RL * sizeof *ws->rm);
-    if (!ws->point || !ws->lo || !ws->hi || !ws->grad || !ws->in || !ws->deps || !ws->rv ||
-        !ws->rd || !ws->rm) {
+    if (!ws->point || !ws->lo || !ws->hi || !ws->grad || !ws->in || !ws->deps) {
         tape_ws_free(ws);
         return NULL;
     }
@@ -59,7 +52,7 @@ size_t tape_ws_bytes(uint32_t max_clauses)
 {
     size_t n = max_clauses ? max_clauses : 1;
     return sizeof(struct tape_ws) + n * B * sizeof(double) * (3 + G_ARRAYS) +
-           6 * B * sizeof(double) + n + n * RL * (2 * sizeof(iv_t) + sizeof(double));
+           12 * B * sizeof(double) + n;
 }
 
 void tape_ws_free(tape_ws_t *ws)
@@ -72,9 +65,6 @@ void tape_ws_free(tape_ws_t *ws)
     free(ws->grad);
     free(ws->in);
     free(ws->deps);
-    free(ws->rv);
-    free(ws->rd);
-    free(ws->rm);
     free(ws);
 }
 
@@ -317,112 +307,13 @@ void tape_eval_grad(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *bo
 
 /* ---- along a ray -----------------------------------------------------------------
  * Forward mode with one tangent, the direction d of the ray: a slot carries
- * its value (ws->rv), its derivative along d (ws->rd) and a magnitude
- * (ws->rm) bounding |∇u(p)·e| over every e with |e_i| <= rho_i.  The set of
+ * its value, its derivative along d and a magnitude bounding |∇u(p)·e| over
+ * every e with |e_i| <= rho_i (the R_* arrays of the kernels' ray pass, a
+ * structure of arrays over TAPE_BATCH lanes like the other passes).  The set of
  * those e is a box symmetric about 0, so every set ∇u(X)·e is symmetric too
  * and one non-negative bound per slot carries it, propagated in doubles
  * rounded up — the price of the rounding term is a few double operations per
  * clause instead of the three partials a full gradient would need. */
-
-static inline double mag_of(iv_t a)
-{
-    double l = fabs(a.lo), h = fabs(a.hi);
-    return iv_is_empty(a) ? INFINITY : l > h ? l : h;
-}
-
-/* x * y rounded up, x, y >= 0; exactly 0 when a factor is 0 (also times +inf:
- * a zero bound means the term is exactly 0, see iv_mul_bound) */
-static inline double mag_mul(double x, double y)
-{
-    return x == 0 || y == 0 ? 0.0 : iv_up(x * y);
-}
-
-/* x / y rounded up, x, y >= 0; y = 0 (a divisor that may vanish) gives +inf */
-static inline double mag_div(double x, double y)
-{
-    double r = x / y;
-    return x == 0 ? 0.0 : r == r ? iv_up(r) : INFINITY;
-}
-
-static void ray_chunk(const tape_t *t, tape_ws_t *ws, int nl, const iv_box_t *box,
-                      const double d[3], const double (*rho)[3])
-{
-    iv_t *restrict V = ws->rv, *restrict D = ws->rd;
-    double *restrict M = ws->rm;
-    for (uint32_t i = 0; i < t->n; i++) {
-        const tape_clause_t *c = &t->clauses[i];
-        const size_t oi = (size_t)i * RL, ai = (size_t)c->a * RL, bi = (size_t)c->b * RL;
-        iv_t *v = V + oi, *dv = D + oi;
-        double *m = M + oi;
-        const iv_t *av = V + ai, *ad = D + ai, *bv = V + bi, *bd = D + bi;
-        const double *am = M + ai, *bm = M + bi;
-        tape_op_t op = (tape_op_t)c->op;
-        switch (op) {
-        case TAPE_CONST:
-            for (int k = 0; k < nl; k++) v[k] = c->c, dv[k] = iv_point(0.0), m[k] = 0.0;
-            break;
-        case TAPE_X:
-            for (int k = 0; k < nl; k++) v[k] = box[k].x, dv[k] = iv_point(d[0]), m[k] = rho[k][0];
-            break;
-        case TAPE_Y:
-            for (int k = 0; k < nl; k++) v[k] = box[k].y, dv[k] = iv_point(d[1]), m[k] = rho[k][1];
-            break;
-        case TAPE_Z:
-            for (int k = 0; k < nl; k++) v[k] = box[k].z, dv[k] = iv_point(d[2]), m[k] = rho[k][2];
-            break;
-        case TAPE_NEG:
-            for (int k = 0; k < nl; k++) v[k] = iv_neg(av[k]), dv[k] = iv_neg(ad[k]), m[k] = am[k];
-            break;
-        case TAPE_ADD:
-            for (int k = 0; k < nl; k++)
-                v[k] = iv_add(av[k], bv[k]), dv[k] = iv_add(ad[k], bd[k]),
-                m[k] = iv_add_up(am[k], bm[k]);
-            break;
-        case TAPE_SUB:
-            for (int k = 0; k < nl; k++)
-                v[k] = iv_sub(av[k], bv[k]), dv[k] = iv_sub(ad[k], bd[k]),
-                m[k] = iv_add_up(am[k], bm[k]);
-            break;
-        case TAPE_MUL:
-            for (int k = 0; k < nl; k++) {
-                v[k] = iv_mul(av[k], bv[k]);
-                dv[k] = fm_mul_add(ad[k], bv[k], av[k], bd[k]);
-                m[k] = iv_add_up(mag_mul(am[k], mag_of(bv[k])), mag_mul(mag_of(av[k]), bm[k]));
-            }
-            break;
-        case TAPE_DIV:
-            /* (a/b)' = (a' - (a/b) b') / b, and its bound over |b| >= mig(b) */
-            for (int k = 0; k < nl; k++) {
-                iv_t q = iv_div(av[k], bv[k]);
-                v[k] = q;
-                dv[k] = iv_div(iv_sub(ad[k], iv_mul(q, bd[k])), bv[k]);
-                double mig = bv[k].lo > 0 ? bv[k].lo : bv[k].hi < 0 ? -bv[k].hi : 0.0;
-                m[k] = mag_div(iv_add_up(am[k], mag_mul(mag_of(q), bm[k])), mig);
-            }
-            break;
-        case TAPE_MIN:
-        case TAPE_MAX:
-            /* the branch certainly selected carries its derivative, else the hull */
-            for (int k = 0; k < nl; k++) {
-                int pick = op == TAPE_MIN ? fm_pick_min(av[k], bv[k]) : fm_pick_max(av[k], bv[k]);
-                v[k] = op == TAPE_MIN ? iv_min(av[k], bv[k]) : iv_max(av[k], bv[k]);
-                dv[k] = pick < 0 ? ad[k] : pick > 0 ? bd[k] : fm_hull_or_empty(ad[k], bd[k]);
-                m[k] = pick < 0 ? am[k] : pick > 0 ? bm[k] : am[k] > bm[k] ? am[k] : bm[k];
-            }
-            break;
-        case TAPE_OP_COUNT: break;
-        default:
-            for (int k = 0; k < nl; k++) {
-                iv_t u, du;
-                fm_unary(op, c->c, av[k], &u, &du);
-                v[k] = u;
-                dv[k] = iv_mul(du, ad[k]);
-                m[k] = mag_mul(mag_of(du), am[k]);
-            }
-            break;
-        }
-    }
-}
 
 /* The box of one lane (tape.h): a point T is the rounded point p~(t); a
  * segment is o + T·d enclosed, hulled with p~(T.lo) and p~(T.hi) — fl(o +
@@ -458,24 +349,34 @@ void tape_eval_ray(const tape_t *t, tape_ws_t *ws, const double o[3], const doub
         }
         return;
     }
-    const size_t last = (size_t)(t->n - 1) * RL;
-    for (size_t base = 0; base < n; base += RL) {
-        size_t m = n - base < RL ? n - base : RL;
-        iv_box_t chunk[RL];
-        double rho[RL][3];
-        for (size_t k = 0; k < m; k++) {
-            iv_t Tk = T[base + k];
-            ray_box(o, d, Tk, &chunk[k]);
+    const tape_kernels_t *kern = kernels();
+    const double *in[6] = PASS_IN(ws);
+    const double *dir_rho[6] = {ws->in + 6 * B,  ws->in + 7 * B,  ws->in + 8 * B,
+                                ws->in + 9 * B,  ws->in + 10 * B, ws->in + 11 * B};
+    const double *r = ws->grad + (size_t)(t->n - 1) * R_ARRAYS * B;
+    iv_box_t chunk[B];
+    for (size_t base = 0; base < n; base += B) {
+        size_t m = n - base < B ? n - base : B, np = padded(m);
+        for (size_t k = 0; k < m; k++)
+            ray_box(o, d, T[base + k], &chunk[k]);
+        load_boxes(ws, chunk, m, np);
+        for (size_t k = 0; k < np; k++) {
+            iv_t Tk = T[base + (k < m ? k : 0)];
             /* twice the largest displacement of a rounded point from the ray
              * over T: two roundings of at most 2^-53 relative each (tape.h) */
             double tmax = fabs(Tk.lo) > fabs(Tk.hi) ? fabs(Tk.lo) : fabs(Tk.hi);
-            for (int i = 0; i < 3; i++)
-                rho[k][i] = iv_up(iv_up(fabs(o[i]) + iv_up(2.0 * tmax * fabs(d[i]))) * 0x1p-51);
+            for (int i = 0; i < 3; i++) {
+                ws->in[(6 + i) * B + k] = d[i];
+                ws->in[(9 + i) * B + k] =
+                    iv_up(iv_up(fabs(o[i]) + iv_up(2.0 * tmax * fabs(d[i]))) * 0x1p-51);
+            }
         }
-        ray_chunk(t, ws, (int)m, chunk, d, (const double(*)[3])rho);
-        memcpy(g + base, ws->rv + last, m * sizeof *g);
-        memcpy(dg + base, ws->rd + last, m * sizeof *dg);
-        if (rnd)
-            memcpy(rnd + base, ws->rm + last, m * sizeof *rnd);
+        kern->ray(t, ws->grad, np, in, dir_rho);
+        for (size_t k = 0; k < m; k++) {
+            g[base + k] = iv_make(r[R_VLO * B + k], r[R_VHI * B + k]);
+            dg[base + k] = iv_make(r[R_DLO * B + k], r[R_DHI * B + k]);
+            if (rnd)
+                rnd[base + k] = r[R_MAG * B + k];
+        }
     }
 }

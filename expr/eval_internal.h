@@ -27,6 +27,10 @@
 
 /* The gradient pass's arrays within a slot, in this order. */
 enum { G_VLO, G_VHI, G_XLO, G_XHI, G_YLO, G_YHI, G_ZLO, G_ZHI, G_ARRAYS };
+/* The ray pass's: the value, the derivative along the direction, the
+ * rounding magnitude (tape_eval_ray); fewer than G_ARRAYS, so the ray pass
+ * uses the gradient pass's buffer. */
+enum { R_VLO, R_VHI, R_DLO, R_DHI, R_MAG, R_ARRAYS };
 
 /* Inputs of a pass: for boxes x.lo, x.hi, y.lo, y.hi, z.lo, z.hi; for
  * points x, y, z in the first three. */
@@ -42,6 +46,10 @@ typedef struct tape_kernels {
      * G + (i * G_ARRAYS + c) * TAPE_BATCH); deps[i]: the variables clause i
      * depends on (bit 0 x, 1 y, 2 z), from tape_deps */
     void (*grad)(const tape_t *t, const uint8_t *deps, double *G, size_t nl, kernel_in_t in);
+    /* along rays: array c of slot i at R + (i * R_ARRAYS + c) * TAPE_BATCH;
+     * lane k's box in in, its direction's components in dir_rho[0..2][k] and
+     * its rounding radii rho in dir_rho[3..5][k] (see tape_eval_ray) */
+    void (*ray)(const tape_t *t, double *R, size_t nl, kernel_in_t in, kernel_in_t dir_rho);
 } tape_kernels_t;
 
 /* deps[i] for every clause of t: bit 0, 1, 2 when clause i depends on x, y,
@@ -79,6 +87,24 @@ static inline iv_t fm_hull_or_empty(iv_t a, iv_t b)
 static inline int fm_pick_min(iv_t a, iv_t b) { return a.hi <= b.lo ? -1 : b.hi <= a.lo ? 1 : 0; }
 static inline int fm_pick_max(iv_t a, iv_t b) { return a.lo >= b.hi ? -1 : b.lo >= a.hi ? 1 : 0; }
 
+/* ---- rounding magnitudes of the ray pass (non-negative bounds, rounded up) */
+static inline double mag_of(iv_t a)
+{
+    double l = fabs(a.lo), h = fabs(a.hi);
+    return iv_is_empty(a) ? INFINITY : l > h ? l : h;
+}
+/* x * y rounded up, x, y >= 0; exactly 0 when a factor is 0 (also times +inf:
+ * a zero bound means the term is exactly 0, see iv_mul_bound) */
+static inline double mag_mul(double x, double y)
+{
+    return x == 0 || y == 0 ? 0.0 : iv_up(x * y);
+}
+/* x / y rounded up, x, y >= 0; y = 0 (a divisor that may vanish) gives +inf */
+static inline double mag_div(double x, double y)
+{
+    double r = x / y;
+    return x == 0 ? 0.0 : r == r ? iv_up(r) : INFINITY;
+}
 /* A unary op's value over a and an enclosure of its derivative there (over
  * the points where it is differentiable; see interval.h), for the chain
  * rule. */

@@ -537,4 +537,176 @@ static void K(grad)(const tape_t *t, const uint8_t *deps, double *G, size_t nl, 
     }
 }
 
-const tape_kernels_t K(tape_kernels) = {KSTR(KERNEL_TARGET), K(point), K(interval), K(grad)};
+/* ---- along rays: value, derivative along the direction, rounding magnitude ------
+ * The rules of tape_eval_ray (eval.c, tape.h) lane by lane, each clause one
+ * set of lane loops; the cheap operations split into loops that vectorise. */
+#define RA(p, c) ((p) + (size_t)(c) * B)
+
+/* o = u(a) along the ray for a unary op u with derivative du (fm_unary's
+ * rules): the value, du * a' and |du| * a's magnitude */
+static void r_lanes_chain(double *o, const double *a, size_t nl, const double *ul,
+                          const double *uh, const double *dul, const double *duh)
+{
+    double *restrict dl = RA(o, R_DLO), *restrict dh = RA(o, R_DHI), *restrict m = RA(o, R_MAG);
+    const double *adl = RA(a, R_DLO), *adh = RA(a, R_DHI), *am = RA(a, R_MAG);
+    if (ul != RA(o, R_VLO)) {
+        memcpy(RA(o, R_VLO), ul, nl * sizeof *ul);
+        memcpy(RA(o, R_VHI), uh, nl * sizeof *uh);
+    }
+    for (size_t k = 0; k < nl; k++) {
+        iv_t d = iv_mul(IV(dul, duh, k), IV(adl, adh, k));
+        dl[k] = d.lo, dh[k] = d.hi;
+    }
+    for (size_t k = 0; k < nl; k++)
+        m[k] = mag_mul(mag_of(IV(dul, duh, k)), am[k]);
+}
+
+/* x^2 (n = 2) and x^n (n >= 3) along the ray: fm_unary's x^2 (derivative 2x) and x^n
+ * (derivative n x^(n-1)) with the interval pass's vector powers */
+static void r_lanes_powi(double *o, const double *a, size_t nl, unsigned n)
+{
+    const double *avl = RA(a, R_VLO), *avh = RA(a, R_VHI);
+    double *restrict vl = RA(o, R_VLO), *restrict vh = RA(o, R_VHI);
+    double sl[B], sh[B];
+    if (n == 2) {
+        for (size_t k = 0; k < nl; k++) {
+            iv_t v = iv_sqr(IV(avl, avh, k)), s2 = iv_add(IV(avl, avh, k), IV(avl, avh, k));
+            vl[k] = v.lo, vh[k] = v.hi, sl[k] = s2.lo, sh[k] = s2.hi;
+        }
+    } else {
+        k_powi_pos(avl, avh, nl, n, vl, vh);
+        if (n - 1 == 2)
+            for (size_t k = 0; k < nl; k++) {
+                iv_t r = iv_sqr(IV(avl, avh, k));
+                sl[k] = r.lo, sh[k] = r.hi;
+            }
+        else
+            k_powi_pos(avl, avh, nl, n - 1, sl, sh);
+        iv_t nn = iv_point((double)n);
+        for (size_t k = 0; k < nl; k++) {
+            iv_t r = iv_mul(nn, IV(sl, sh, k));
+            sl[k] = r.lo, sh[k] = r.hi;
+        }
+    }
+    r_lanes_chain(o, a, nl, vl, vh, sl, sh);
+}
+
+static void K(ray)(const tape_t *t, double *R, size_t nl, kernel_in_t in, kernel_in_t dir_rho)
+{
+    for (uint32_t i = 0; i < t->n; i++) {
+        const tape_clause_t *c = &t->clauses[i];
+        double *o = R + (size_t)i * R_ARRAYS * B;
+        const double *a = R + (size_t)c->a * R_ARRAYS * B, *b = R + (size_t)c->b * R_ARRAYS * B;
+        double *restrict vl = RA(o, R_VLO), *restrict vh = RA(o, R_VHI);
+        double *restrict dl = RA(o, R_DLO), *restrict dh = RA(o, R_DHI);
+        double *restrict m = RA(o, R_MAG);
+        const double *avl = RA(a, R_VLO), *avh = RA(a, R_VHI), *adl = RA(a, R_DLO),
+                     *adh = RA(a, R_DHI), *am = RA(a, R_MAG);
+        const double *bvl = RA(b, R_VLO), *bvh = RA(b, R_VHI), *bdl = RA(b, R_DLO),
+                     *bdh = RA(b, R_DHI), *bm = RA(b, R_MAG);
+        tape_op_t op = (tape_op_t)c->op;
+        switch (op) {
+        case TAPE_CONST:
+            for (size_t k = 0; k < nl; k++)
+                vl[k] = c->c.lo, vh[k] = c->c.hi, dl[k] = dh[k] = 0.0, m[k] = 0.0;
+            break;
+        case TAPE_X:
+        case TAPE_Y:
+        case TAPE_Z: {
+            int axis = op - TAPE_X;
+            memcpy(vl, in[2 * axis], nl * sizeof *vl);
+            memcpy(vh, in[2 * axis + 1], nl * sizeof *vh);
+            memcpy(dl, dir_rho[axis], nl * sizeof *dl);
+            memcpy(dh, dir_rho[axis], nl * sizeof *dh);
+            memcpy(m, dir_rho[3 + axis], nl * sizeof *m);
+            break;
+        }
+        case TAPE_NEG:
+            for (size_t k = 0; k < nl; k++) {
+                iv_t v = iv_neg(IV(avl, avh, k)), d = iv_neg(IV(adl, adh, k));
+                vl[k] = v.lo, vh[k] = v.hi, dl[k] = d.lo, dh[k] = d.hi, m[k] = am[k];
+            }
+            break;
+        case TAPE_ADD:
+        case TAPE_SUB: {
+            const int add = op == TAPE_ADD;
+            for (size_t k = 0; k < nl; k++) {
+                iv_t v = add ? iv_add(IV(avl, avh, k), IV(bvl, bvh, k))
+                             : iv_sub(IV(avl, avh, k), IV(bvl, bvh, k));
+                vl[k] = v.lo, vh[k] = v.hi;
+            }
+            for (size_t k = 0; k < nl; k++) {
+                iv_t d = add ? iv_add(IV(adl, adh, k), IV(bdl, bdh, k))
+                             : iv_sub(IV(adl, adh, k), IV(bdl, bdh, k));
+                dl[k] = d.lo, dh[k] = d.hi;
+            }
+            for (size_t k = 0; k < nl; k++)
+                m[k] = iv_add_up(am[k], bm[k]);
+            break;
+        }
+        case TAPE_MUL: {
+            /* fm_mul_add(a', b, a, b') in loops that vectorise */
+            double pl[B], ph[B];
+            for (size_t k = 0; k < nl; k++) {
+                iv_t v = iv_mul(IV(avl, avh, k), IV(bvl, bvh, k));
+                vl[k] = v.lo, vh[k] = v.hi;
+            }
+            for (size_t k = 0; k < nl; k++) {
+                iv_t p = iv_mul(IV(adl, adh, k), IV(bvl, bvh, k));
+                pl[k] = p.lo, ph[k] = p.hi;
+            }
+            for (size_t k = 0; k < nl; k++) {
+                iv_t q = iv_mul(IV(avl, avh, k), IV(bdl, bdh, k));
+                iv_t d = iv_add(iv_make(pl[k], ph[k]), q);
+                dl[k] = d.lo, dh[k] = d.hi;
+            }
+            for (size_t k = 0; k < nl; k++)
+                m[k] = iv_add_up(mag_mul(am[k], mag_of(IV(bvl, bvh, k))),
+                                 mag_mul(mag_of(IV(avl, avh, k)), bm[k]));
+            break;
+        }
+        case TAPE_DIV:
+            /* (a/b)' = (a' - (a/b) b') / b, and its bound over |b| >= mig(b) */
+            for (size_t k = 0; k < nl; k++) {
+                iv_t bv = IV(bvl, bvh, k);
+                iv_t q = iv_div(IV(avl, avh, k), bv);
+                iv_t d = iv_div(iv_sub(IV(adl, adh, k), iv_mul(q, IV(bdl, bdh, k))), bv);
+                double mig = bv.lo > 0 ? bv.lo : bv.hi < 0 ? -bv.hi : 0.0;
+                vl[k] = q.lo, vh[k] = q.hi, dl[k] = d.lo, dh[k] = d.hi;
+                m[k] = mag_div(iv_add_up(am[k], mag_mul(mag_of(q), bm[k])), mig);
+            }
+            break;
+        case TAPE_MIN:
+        case TAPE_MAX:
+            /* the branch certainly selected carries its derivative, else the hull */
+            for (size_t k = 0; k < nl; k++) {
+                iv_t av = IV(avl, avh, k), bv = IV(bvl, bvh, k);
+                iv_t ad = IV(adl, adh, k), bd = IV(bdl, bdh, k);
+                int pick = op == TAPE_MIN ? fm_pick_min(av, bv) : fm_pick_max(av, bv);
+                iv_t v = op == TAPE_MIN ? iv_min(av, bv) : iv_max(av, bv);
+                iv_t d = pick < 0 ? ad : pick > 0 ? bd : fm_hull_or_empty(ad, bd);
+                vl[k] = v.lo, vh[k] = v.hi, dl[k] = d.lo, dh[k] = d.hi;
+                m[k] = pick < 0 ? am[k] : pick > 0 ? bm[k] : am[k] > bm[k] ? am[k] : bm[k];
+            }
+            break;
+        case TAPE_SQR: r_lanes_powi(o, a, nl, 2); break;
+        case TAPE_OP_COUNT: break;
+        default:
+            if (op == TAPE_POWI && (int)c->c.lo >= 3) {
+                r_lanes_powi(o, a, nl, (unsigned)(int)c->c.lo);
+                break;
+            }
+            for (size_t k = 0; k < nl; k++) {
+                iv_t u, du;
+                fm_unary(op, c->c, IV(avl, avh, k), &u, &du);
+                iv_t d = iv_mul(du, IV(adl, adh, k));
+                vl[k] = u.lo, vh[k] = u.hi, dl[k] = d.lo, dh[k] = d.hi;
+                m[k] = mag_mul(mag_of(du), am[k]);
+            }
+            break;
+        }
+    }
+}
+
+const tape_kernels_t K(tape_kernels) = {KSTR(KERNEL_TARGET), K(point), K(interval), K(grad),
+                                        K(ray)};

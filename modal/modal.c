@@ -366,11 +366,13 @@ bool mod_tape_supported(const tape_t *t)
 
 static uint64_t sat_add(uint64_t a, uint64_t b) { return a > UINT64_MAX - b ? UINT64_MAX : a + b; }
 
-#define MOD_STACK_CLAUSES 4096
+#define MOD_STACK_CLAUSES 1024
 
 int mod_incidences(const tape_t *t, uint64_t inc[3])
 {
     inc[0] = inc[1] = inc[2] = 0;
+    if (!t || t->n == 0)
+        return 0;
     uint64_t stack[MOD_STACK_CLAUSES], *paths = stack;
     if (t->n > MOD_STACK_CLAUSES) {
         paths = malloc(t->n * sizeof *paths);

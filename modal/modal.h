@@ -181,7 +181,7 @@ typedef struct mod_info {
 
 /* Number of uses of x, y, z along the DAG of t (paths from each variable's leaf
  * to the result; a shared subexpression used twice counts twice).  A variable
- * used at most once is uni-incident.  No allocation when t->n <= 4096,
+ * used at most once is uni-incident.  An empty or NULL tape has none.  No allocation when t->n <= 1024,
  * otherwise a malloc (returns -1 when it fails, else 0). */
 int mod_incidences(const tape_t *t, uint64_t inc[3]);
 

@@ -502,6 +502,74 @@ static void test_statuses(void **state)
     tape_free(t);
 }
 
+/* f*(X) and f**(X) under mixed modalities, from their definitions: f(x, y, z)
+ * = x*y + exp(z) + x is increasing in each variable over x, y > 0, so in
+ * f* = [min_xp max_xi f, max_xp min_xi f] every min over a proper component is
+ * at the lower end of its set and every max over an improper one at the upper
+ * end of its set: both are the modal lower end X.lo, and likewise for the
+ * upper bound; so f*(X) = f**(X) = [f(X.lo, Y.lo, Z.lo), f(X.hi, Y.hi, Z.hi)].
+ * x occurs twice: mod_star and mod_dstar must find f monotone in it. */
+static void f_mpfr(mpfr_t r, double a, double b, double c, mpfr_rnd_t rnd)
+{
+    mpfr_t A, B, C;
+    mpfr_inits2(PREC, A, B, C, (mpfr_ptr)0);
+    mpfr_set_d(A, a, MPFR_RNDN);
+    mpfr_set_d(B, b, MPFR_RNDN);
+    mpfr_set_d(C, c, MPFR_RNDN);
+    mpfr_mul(B, A, B, rnd); /* exact at PREC bits */
+    mpfr_exp(C, C, rnd);
+    mpfr_add(r, B, C, rnd);
+    mpfr_add(r, r, A, rnd);
+    mpfr_clears(A, B, C, (mpfr_ptr)0);
+}
+
+static void test_semantic_mixed_modalities(void **state)
+{
+    (void)state;
+    tape_t *t = tu_compile("x*y + exp(z) + x");
+    uint64_t rng = tu_seed(1234);
+    mpfr_t lo, hi;
+    mpfr_inits2(PREC, lo, hi, (mpfr_ptr)0);
+    long n = (long)(20000 * tu_scale()), modes[2] = {0, 0};
+    for (long i = 0; i < n; i++) {
+        mod_t X[3];
+        for (int k = 0; k < 3; k++) {
+            double u = tu_uniform(&rng) * 3 + (k == 2 ? -1.5 : 0.1);
+            double v = tu_uniform(&rng) * 3 + (k == 2 ? -1.5 : 0.1);
+            X[k] = mod_make(u, v);
+        }
+        modes[X[0].lo > X[0].hi]++;
+        mod_t s, ds;
+        mod_info_t info;
+        assert_int_equal(mod_star(t, X, &s, &info), MOD_OK);
+        assert_int_equal(info.use[0], MOD_VAR_MONOTONE);
+        assert_int_equal(mod_dstar(t, X, &ds, &info), MOD_OK);
+        f_mpfr(lo, X[0].lo, X[1].lo, X[2].lo, MPFR_RNDD);
+        f_mpfr(hi, X[0].hi, X[1].hi, X[2].hi, MPFR_RNDU);
+        /* outer: s.lo <= f*.lo, s.hi >= f*.hi (lo here is below f*.lo only by
+         * 2^-256 relative, so compare with the rounded-up value) */
+        mpfr_t lou, hid;
+        mpfr_inits2(PREC, lou, hid, (mpfr_ptr)0);
+        f_mpfr(lou, X[0].lo, X[1].lo, X[2].lo, MPFR_RNDU);
+        f_mpfr(hid, X[0].hi, X[1].hi, X[2].hi, MPFR_RNDD);
+        if (!(mpfr_cmp_d(lou, s.lo) >= 0 && mpfr_cmp_d(hid, s.hi) <= 0))
+            fail_msg("f* [%a,%a]x[%a,%a]x[%a,%a]: [%a,%a] does not hold the definition", X[0].lo,
+                     X[0].hi, X[1].lo, X[1].hi, X[2].lo, X[2].hi, s.lo, s.hi);
+        if (!(mpfr_cmp_d(lo, ds.lo) <= 0 && mpfr_cmp_d(hi, ds.hi) >= 0))
+            fail_msg("f** [%a,%a]x[%a,%a]x[%a,%a]: [%a,%a] not inside the definition", X[0].lo,
+                     X[0].hi, X[1].lo, X[1].hi, X[2].lo, X[2].hi, ds.lo, ds.hi);
+        double rl = mpfr_get_d(lo, MPFR_RNDN), rh = mpfr_get_d(hi, MPFR_RNDN);
+        assert_true(fabs(s.lo - rl) <= 1e-13 * (fabs(rl) + 1) &&
+                    fabs(s.hi - rh) <= 1e-13 * (fabs(rh) + 1)); /* tight: optimal */
+        assert_true(fabs(ds.lo - s.lo) <= 1e-13 * (fabs(s.lo) + 1) &&
+                    fabs(ds.hi - s.hi) <= 1e-13 * (fabs(s.hi) + 1));
+        mpfr_clears(lou, hid, (mpfr_ptr)0);
+    }
+    assert_true(modes[0] > n / 4 && modes[1] > n / 4);
+    mpfr_clears(lo, hi, (mpfr_ptr)0);
+    tape_free(t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -510,6 +578,7 @@ int main(void)
         cmocka_unit_test(test_lattice),
         cmocka_unit_test(test_incidences),
         cmocka_unit_test(test_statuses),
+        cmocka_unit_test(test_semantic_mixed_modalities),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -18,7 +18,10 @@
  *     lie at or beyond lo and hi (no tolerance: that is the inner claim), and
  *     within rounding of them (1e-12 relative: the optimality);
  * and a scene whose tape has an unsupported operation (min, max, abs) is
- * reported MOD_UNSUPPORTED on every box. */
+ * reported MOD_UNSUPPORTED on every box.  On every box the outer claim of
+ * mod_star on the proper box (f* is then the range) is checked as well: the
+ * MPFI values of f at ten points of the box lie in it, and so does the inner
+ * estimate. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -127,7 +130,7 @@ static int mpfi_box(const tape_t *t, const iv_box_t *box, mpfi_t out)
 }
 
 typedef struct {
-    long boxes, certified, unsupported, strict_lo, strict_hi, dualised;
+    long boxes, certified, unsupported, strict_lo, strict_hi, dualised, outer;
     long status[MOD_ENOMEM + 1];
 } tally_t;
 
@@ -201,6 +204,32 @@ static void run_boxes(const char *name, const tape_t *t, const double box6[6], l
         mod_status_t st = mod_inner_range(t, &box, &r, &info);
         ty->boxes++;
         ty->status[st]++;
+        /* the outer claim f*(X) ⊆ S on the proper box (f* is then the range):
+         * every point value of f lies in S, and so does the inner estimate */
+        mod_t X[3] = {mod_from_iv(box.x), mod_from_iv(box.y), mod_from_iv(box.z)}, S;
+        mod_status_t sst = mod_star(t, X, &S, NULL);
+        if (!supported)
+            assert_int_equal(sst, MOD_UNSUPPORTED);
+        if (sst == MOD_OK) {
+            ty->outer++;
+            if (st == MOD_OK && !(S.lo <= r.lo && r.hi <= S.hi))
+                fail_msg("%s: inner [%.17g, %.17g] not inside f* [%.17g, %.17g]", name, r.lo, r.hi,
+                         S.lo, S.hi);
+            mpfi_t v;
+            mpfi_init2(v, ORACLE_PREC);
+            for (int j = 0; j < 10; j++) {
+                double p[3];
+                tu_box_point(&box, j, rng, p);
+                for (int w = 0; w < 2; w++) {
+                    if (oracle_eval(t, p, w ? ORACLE_CONST_HI : ORACLE_CONST_LO, v, NULL) != 0)
+                        fail_msg("%s: f* certified but f undefined at a point of the box", name);
+                    if (!(mpfr_cmp_d(&v->left, S.lo) >= 0 && mpfr_cmp_d(&v->right, S.hi) <= 0))
+                        fail_msg("%s: f(%a, %a, %a) outside f* [%.17g, %.17g]", name, p[0], p[1],
+                                 p[2], S.lo, S.hi);
+                }
+            }
+            mpfi_clear(v);
+        }
         if (!supported) {
             if (st != MOD_UNSUPPORTED)
                 fail_msg("%s: unsupported tape, status '%s'", name, mod_status_name(st));
@@ -225,10 +254,10 @@ static void print_tally(const char *name, const tally_t *ty)
 {
     printf("%-34s %5ld boxes: %5ld certified (%ld with a dualised variable; a sample "
            "strictly beyond lo %ld, hi %ld), no inner %ld, not interpretable %ld, domain %ld, "
-           "unsupported %ld\n",
+           "unsupported %ld; f* outer estimates %ld\n",
            name, ty->boxes, ty->certified, ty->dualised, ty->strict_lo, ty->strict_hi,
            ty->status[MOD_NO_INNER], ty->status[MOD_NOT_INTERPRETABLE], ty->status[MOD_DOMAIN],
-           ty->status[MOD_UNSUPPORTED]);
+           ty->status[MOD_UNSUPPORTED], ty->outer);
 }
 
 static void test_scenes(void **state)

@@ -243,17 +243,23 @@ void shared_points(const oct_tree_t *tree, vtkIdType *conn, vtkPoints *points)
         }
         return;
     }
+    // leaf i's lowest corner and its size, in integer coordinates of depth D
+    auto anchor = [tree, D](size_t i, uint32_t a[3], uint32_t &size) {
+        const oct_leaf_t &l = tree->leaves[i];
+        const int depth = oct_leaf_depth(&l);
+        oct_unmorton(oct_leaf_code(&l), depth, &a[0], &a[1], &a[2]);
+        size = 1u << (D - depth);
+        for (int k = 0; k < 3; k++)
+            a[k] *= size;
+    };
     const size_t n_slices = ((size_t)1 << D) + 1;
     // the slices' extents in `entries` (a counting sort by z)
     std::vector<size_t> start(n_slices + 1, 0);
     for (size_t i = 0; i < n; i++) {
-        const oct_leaf_t &l = tree->leaves[i];
-        uint32_t ix, iy, iz;
-        const int depth = oct_leaf_depth(&l);
-        oct_unmorton(oct_leaf_code(&l), depth, &ix, &iy, &iz);
-        const uint32_t s = 1u << (D - depth);
-        start[(size_t)iz * s + 1] += 4;
-        start[(size_t)(iz + 1) * s + 1] += 4;
+        uint32_t a[3], s;
+        anchor(i, a, s);
+        start[(size_t)a[2] + 1] += 4;
+        start[(size_t)a[2] + s + 1] += 4;
     }
     for (size_t z = 0; z < n_slices; z++)
         start[z + 1] += start[z];
@@ -261,14 +267,11 @@ void shared_points(const oct_tree_t *tree, vtkIdType *conn, vtkPoints *points)
     {
         std::vector<size_t> fill(start.begin(), start.end() - 1);
         for (size_t i = 0; i < n; i++) {
-            const oct_leaf_t &l = tree->leaves[i];
-            uint32_t ix, iy, iz;
-            const int depth = oct_leaf_depth(&l);
-            oct_unmorton(oct_leaf_code(&l), depth, &ix, &iy, &iz);
-            const uint32_t s = 1u << (D - depth);
+            uint32_t a[3], s;
+            anchor(i, a, s);
             for (uint32_t c = 0; c < 8; c++) {
-                const uint64_t x = (ix + (c & 1)) * s, y = (iy + (c >> 1 & 1)) * s;
-                const size_t z = (size_t)(iz + (c >> 2 & 1)) * s;
+                const uint64_t x = a[0] + (c & 1) * s, y = a[1] + (c >> 1 & 1) * s;
+                const size_t z = (size_t)a[2] + (c >> 2 & 1) * s;
                 entries[fill[z]++] = (y << bits | x) << 32 | (uint64_t)(8 * i + c);
             }
         }

@@ -146,6 +146,13 @@ int cli_mpi_finish(int rc)
     return rc;
 }
 
+/* Is path an index of pieces (its name ends in ext)? */
+static int is_index(const char *path, const char *ext)
+{
+    size_t n = path ? strlen(path) : 0, e = strlen(ext);
+    return n > e && !strcmp(path + n - e, ext);
+}
+
 /* ---- the work: ranges by weight, handed out by rank 0 ------------------------------- */
 
 typedef struct share {
@@ -369,13 +376,6 @@ static int receive_subtrees(oct_plan_t *plan, int from, MPI_Datatype leaf_t, MPI
 
 /* ---- the outputs ------------------------------------------------------------------------- */
 
-/* Is path an index of pieces (its name ends in ext)? */
-static int is_index(const char *path, const char *ext)
-{
-    size_t n = path ? strlen(path) : 0, e = strlen(ext);
-    return n > e && !strcmp(path + n - e, ext);
-}
-
 /* The piece of rank r beside index path: PATH without its extension, _r, ext;
  * with the folder (for the file) or without (for the index's Source). */
 static char *piece_name(const char *path, int r, const char *ext, int with_folder)
@@ -523,7 +523,12 @@ int cli_mpi_build(const build_job_t *job, bool quiet)
     ivoct_error_clear(&err);
     /* the ranks that failed before this (the options, the scene) meet the
        others here */
-    int agreed = cli_mpi_agree(EXIT_OK);
+    /* a HyperTreeGrid is one tree here: its pieces are not written yet */
+    int agreed = cli_mpi_agree(
+        is_index(job->ex.htg, ".phtg")
+            ? cli_usage_error("build", "--htg %s: .phtg pieces are not written yet; give F.htg "
+                                       "(one file, gathered on rank 0)", job->ex.htg)
+            : EXIT_OK);
     if (agreed)
         return agreed;
     const scene_t *s = job->scene;

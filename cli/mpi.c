@@ -664,7 +664,8 @@ int cli_mpi_build(const build_job_t *job, bool quiet)
     }
     MPI_Type_free(&leaf_t);
     MPI_Type_free(&slab_t);
-    if (!rc && pieces) {
+    /* this rank's part: for its pieces, or for the counts when nothing is gathered */
+    if (!rc && (pieces || !gather)) {
         oct_plan_t *from = mine ? mine : plan;
         unsigned flags = OCT_PLAN_PART | (M.rank > 0 ? OCT_PLAN_NO_TOP : 0u);
         if (oct_plan_finish(from, flags, &part, &err))

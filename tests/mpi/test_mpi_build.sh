@@ -104,6 +104,16 @@ mpirun_ivoct 2 0 "gathered vtu" -- build "$SCENES/gumdrop.ini" --depth $depth --
     { cmp -s "$W/one.vtu" "$W/g.vtu" && cmp -s "$W/one.csv" "$W/g.csv" && ok ||
         fail "gathered .vtu or .csv differs from the single build's"; }
 
+# the stats alone (nothing gathered, no pieces): the counts reduced over the ranks
+run 0 "single stats" -- build "$SCENES/csg-64-spheres.ini" --depth $depth --stats "$W/one.json" --quiet
+for np in 2 3; do
+    mpirun_ivoct $np 0 "stats alone, $np ranks" -- build "$SCENES/csg-64-spheres.ini" --depth $depth \
+        --stats "$W/r.json" &&
+        { diff <(counts "$W/one.json") <(counts "$W/r.json") >/dev/null && ok ||
+            fail "stats alone, $np ranks: the counts differ from the single build's"; }
+    grep -q "$np ranks" "$TMP/out" && ok || fail "stats alone, $np ranks: summary line: $(cat "$TMP/out")"
+done
+
 # ---- failures: one message, one status, nothing left -------------------------------------
 F=$TMP/f
 mkdir -p "$F"

@@ -125,6 +125,11 @@ int cli_mpi_ranks(void);
 int cli_mpi_agree(int rc);
 /* ivoct build over the ranks (docs/cluster.md); an exit code, the same on every rank. */
 int cli_mpi_build(const build_job_t *job, bool quiet);
+/* This rank's number (0 without MPI). */
+int cli_mpi_rank(void);
+/* The sum of v over the ranks, on every rank (collective). */
+uint64_t cli_mpi_sum_u64(uint64_t v);
+double cli_mpi_sum_double(double v);
 /* End MPI (when started); returns rc. */
 int cli_mpi_finish(int rc);
 #endif

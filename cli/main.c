@@ -69,8 +69,8 @@ int main(int argc, char **argv)
             /* before any thread is started */
             cli_signals_start(commands[i].name);
 #ifdef IVOCT_MPI
-            /* under mpirun, `build` runs over the ranks (cli/mpi.c) */
-            if (commands[i].run == cmd_build) {
+            /* under mpirun, `build` and `render` run over the ranks (cli/mpi.c) */
+            if (commands[i].run == cmd_build || commands[i].run == cmd_render) {
                 int rc = cli_mpi_start(&argc, &argv);
                 if (rc)
                     return cli_signals_finish(rc);

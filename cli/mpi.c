@@ -77,6 +77,24 @@ int cli_mpi_start(int *argc, char ***argv)
 
 int cli_mpi_ranks(void) { return M.started ? M.size : 0; }
 
+int cli_mpi_rank(void) { return M.rank; }
+
+uint64_t cli_mpi_sum_u64(uint64_t v)
+{
+    uint64_t sum = v;
+    if (M.started)
+        MPI_Allreduce(&v, &sum, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+    return sum;
+}
+
+double cli_mpi_sum_double(double v)
+{
+    double sum = v;
+    if (M.started)
+        MPI_Allreduce(&v, &sum, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+    return sum;
+}
+
 /* What this rank wrote on its stderr since the last report. */
 static char *captured_text(void)
 {

@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# `mpirun -np N ivoct render` (cli/mpi.c, docs/cluster.md): the frames of --frames are dealt
+# out to the ranks (frame k to rank k mod N).  For N = 1, 2, 3 on the CSG scene and a
+# comparison surface: every PNG and .vti is the single-process one (cmp), the stats' totals
+# are the same; one frame over 2 ranks is the same image.  A missing folder: exit 1 on
+# every rank, one message, no frame or stats left.
+#
+# Needs IVOCT_BIN, IVOCT_SOURCE_DIR and IVOCT_MPIEXEC (mpirun), as set by ctest.
+set -u
+
+. "$(dirname "${BASH_SOURCE[0]}")/../support/cli.sh"
+cli_setup mpi-render
+MPIEXEC=${IVOCT_MPIEXEC:?IVOCT_MPIEXEC must name mpirun}
+mpi_args=(--oversubscribe)
+[ "$(id -u)" -eq 0 ] && mpi_args+=(--allow-run-as-root)
+# Open MPI's own unfreed allocations: suppressed for its libraries only (lsan-openmpi.supp)
+if [ -n "${IVOCT_ASAN:-}" ]; then
+    export LSAN_OPTIONS="${LSAN_OPTIONS:+$LSAN_OPTIONS:}suppressions=$SRC/tests/mpi/lsan-openmpi.supp:print_suppressions=0"
+fi
+size=48x36
+
+mpirun_ivoct() {
+    local np=$1 want=$2 what=$3
+    shift 4
+    "$MPIEXEC" "${mpi_args[@]}" -np "$np" "$BIN" "$@" >"$TMP/out" 2>"$TMP/err"
+    local got=$?
+    if [ "$got" -ne "$want" ]; then
+        fail "$what: exit $got, expected $want (mpirun -np $np ivoct $*)"
+        sed 's/^/    stderr: /' "$TMP/err" >&2
+        return 1
+    fi
+    ok
+}
+totals() { grep -E '"(frames|rays|hits|tangent_hits|tape_evals|segments|leaves)"' "$1"; }
+
+W=$TMP/w
+mkdir -p "$W"
+for sc in csg-64-spheres gumdrop; do
+    run 0 "$sc: single" -- render "$SCENES/$sc.ini" --size $size --frames 4 --png "$W/one.png" \
+        --vti "$W/one.vti" --stats "$W/one.json" --quiet || continue
+    for np in 1 2 3; do
+        rm -f "$W"/m*
+        mpirun_ivoct $np 0 "$sc: $np ranks" -- render "$SCENES/$sc.ini" --size $size --frames 4 \
+            --png "$W/m.png" --vti "$W/m.vti" --stats "$W/m.json" --quiet || continue
+        for k in 0 1 2 3; do
+            cmp -s "$W/one_00$k.png" "$W/m_00$k.png" && cmp -s "$W/one_00$k.vti" "$W/m_00$k.vti" &&
+                ok || fail "$sc, $np ranks: frame $k differs"
+        done
+        diff <(totals "$W/one.json") <(totals "$W/m.json") >/dev/null && ok ||
+            fail "$sc, $np ranks: the stats' totals differ"
+    done
+done
+run 0 "one frame: single" -- render "$SCENES/sphere.ini" --size $size --png "$W/s1.png" --quiet
+mpirun_ivoct 2 0 "one frame, 2 ranks" -- render "$SCENES/sphere.ini" --size $size --png "$W/s2.png" &&
+    { cmp -s "$W/s1.png" "$W/s2.png" && ok || fail "one frame over 2 ranks: the image differs"; }
+
+# a missing folder: one message, one status, nothing left
+F=$TMP/f
+mkdir -p "$F"
+mpirun_ivoct 3 1 "missing folder" -- render "$SCENES/sphere.ini" --size $size --frames 3 \
+    --png "$F/none/x.png" --stats "$F/s.json"
+n=$(grep -c '^ivoct' "$TMP/err")
+[ "$n" -eq 1 ] && ok || fail "missing folder: $n messages from ivoct, expected 1"
+left=$(ls -A "$F")
+[ -z "$left" ] && ok || fail "missing folder: left behind: $left"
+
+cli_summary

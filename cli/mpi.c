@@ -106,8 +106,7 @@ static char *captured_text(void)
         return NULL;
     char *text = calloc((size_t)(end - M.reported) + 1, 1);
     if (text && fseek(M.captured, M.reported, SEEK_SET) == 0)
-        if (fread(text, 1, (size_t)(end - M.reported), M.captured)) {
-        }
+        text[fread(text, 1, (size_t)(end - M.reported), M.captured)] = '\0';
     fseek(M.captured, end, SEEK_SET);
     M.reported = end;
     return text;

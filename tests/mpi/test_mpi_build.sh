@@ -17,32 +17,10 @@ set -u
 
 . "$(dirname "${BASH_SOURCE[0]}")/../support/cli.sh"
 cli_setup mpi
-MPIEXEC=${IVOCT_MPIEXEC:?IVOCT_MPIEXEC must name mpirun}
-mpi_args=(--oversubscribe)
-[ "$(id -u)" -eq 0 ] && mpi_args+=(--allow-run-as-root)
-# Open MPI's own allocations that it never frees show as leaks under LeakSanitizer:
-# suppressed for its libraries only (lsan-openmpi.supp), never for ivoct's code
-if [ -n "${IVOCT_ASAN:-}" ]; then
-    export LSAN_OPTIONS="${LSAN_OPTIONS:+$LSAN_OPTIONS:}suppressions=$SRC/tests/mpi/lsan-openmpi.supp:print_suppressions=0"
-    export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}fast_unwind_on_malloc=0"
-fi
+. "$(dirname "${BASH_SOURCE[0]}")/../support/mpi.sh"
 # the sanitizer build is ~10x slower: shallower trees there
 depth=6
 [ "${IVOCT_ASAN:-0}" = 1 ] && depth=5
-
-# mpirun_ivoct N EXPECTED_EXIT DESCRIPTION -- ARGS...: ivoct over N ranks, out/err in $TMP
-mpirun_ivoct() {
-    local np=$1 want=$2 what=$3
-    shift 4
-    "$MPIEXEC" "${mpi_args[@]}" -np "$np" "$BIN" "$@" >"$TMP/out" 2>"$TMP/err"
-    local got=$?
-    if [ "$got" -ne "$want" ]; then
-        fail "$what: exit $got, expected $want (mpirun -np $np ivoct $*)"
-        sed 's/^/    stderr: /' "$TMP/err" >&2
-        return 1
-    fi
-    ok
-}
 
 # The counts of a stats file that do not depend on how the build ran.
 counts() {
@@ -126,7 +104,6 @@ done
 # ---- failures: one message, one status, nothing left -------------------------------------
 F=$TMP/f
 mkdir -p "$F"
-ivoct_lines() { grep -c '^ivoct' "$TMP/err"; }
 one_message() {
     local what=$1 n
     shift

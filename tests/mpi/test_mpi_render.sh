@@ -10,28 +10,8 @@ set -u
 
 . "$(dirname "${BASH_SOURCE[0]}")/../support/cli.sh"
 cli_setup mpi-render
-MPIEXEC=${IVOCT_MPIEXEC:?IVOCT_MPIEXEC must name mpirun}
-mpi_args=(--oversubscribe)
-[ "$(id -u)" -eq 0 ] && mpi_args+=(--allow-run-as-root)
-# Open MPI's own unfreed allocations: suppressed for its libraries only (lsan-openmpi.supp)
-if [ -n "${IVOCT_ASAN:-}" ]; then
-    export LSAN_OPTIONS="${LSAN_OPTIONS:+$LSAN_OPTIONS:}suppressions=$SRC/tests/mpi/lsan-openmpi.supp:print_suppressions=0"
-    export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}fast_unwind_on_malloc=0"
-fi
+. "$(dirname "${BASH_SOURCE[0]}")/../support/mpi.sh"
 size=48x36
-
-mpirun_ivoct() {
-    local np=$1 want=$2 what=$3
-    shift 4
-    "$MPIEXEC" "${mpi_args[@]}" -np "$np" "$BIN" "$@" >"$TMP/out" 2>"$TMP/err"
-    local got=$?
-    if [ "$got" -ne "$want" ]; then
-        fail "$what: exit $got, expected $want (mpirun -np $np ivoct $*)"
-        sed 's/^/    stderr: /' "$TMP/err" >&2
-        return 1
-    fi
-    ok
-}
 totals() { grep -E '"(frames|rays|hits|tangent_hits|tape_evals|segments|leaves)"' "$1"; }
 
 W=$TMP/w
@@ -63,7 +43,7 @@ F=$TMP/f
 mkdir -p "$F"
 mpirun_ivoct 3 1 "missing folder" -- render "$SCENES/sphere.ini" --size $size --frames 3 \
     --png "$F/none/x.png" --stats "$F/s.json"
-n=$(grep -c '^ivoct' "$TMP/err")
+n=$(ivoct_lines)
 [ "$n" -eq 1 ] && ok || fail "missing folder: $n messages from ivoct, expected 1"
 left=$(ls -A "$F")
 [ -z "$left" ] && ok || fail "missing folder: left behind: $left"

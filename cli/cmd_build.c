@@ -305,13 +305,15 @@ int cmd_build(int argc, char **argv)
         {.name = "--cells", .kind = CLI_STRING, .target = &cells, .arg = "F.csv",
          .help = "surface leaves, one per line in Morton order:\n"
                  "x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi,nx,ny,nz,d_lo,d_hi,error_bound\n"
-                 "(the slab n.p in [d_lo, d_hi] is empty where a leaf has none)"},
+                 "(the slab n.p in [d_lo, d_hi] is empty where a leaf has none);\n"
+                 "under mpirun F.pcsv writes one piece per rank, F_<rank>.csv"},
         {.name = "--save", .kind = CLI_STRING, .target = &save, .arg = "F.ivo",
          .help = "the octree with its scene, for ivoct info and ivoct render"},
         {.name = "--stats", .kind = CLI_STRING, .target = &stats, .arg = "F.json",
          .help = "build statistics (keys in octree/README.md)"},
         {.name = "--vtu", .kind = CLI_STRING, .target = &ex.vtu, .arg = "F.vtu",
-         .help = "surface leaves as VTK voxels (depth, f_lo, f_hi, error_bound)"},
+         .help = "surface leaves as VTK voxels (depth, f_lo, f_hi, error_bound);\n"
+                 "under mpirun F.pvtu writes one piece per rank, F_<rank>.vtu"},
         {.name = "--htg", .kind = CLI_STRING, .target = &ex.htg, .arg = "F.htg",
          .help = "the whole octree as a VTK HyperTreeGrid (see docs/paraview.md)"},
         {.name = "--vdb", .kind = CLI_STRING, .target = &ex.vdb, .arg = "F.vdb",

@@ -196,6 +196,11 @@ void cli_signals_start(const char *cmd);
  * waits for the signal thread to end the process. */
 int cli_signals_finish(int rc);
 
+/* The command's failure is reported and its outputs are taken back: a signal
+ * from now on ends the process without a message (mpirun ends the other ranks
+ * with SIGTERM as soon as one exits non-zero: cli/mpi.c). */
+void cli_signals_settled(void);
+
 /* The test hook (tests/test_signals.sh): when IVOCT_TEST_PAUSE_AT is `step`,
  * print "ivoct: test pause at STEP" on stderr and wait there for a signal.
  * Steps: build (before the octree is built), each output of build (cells,

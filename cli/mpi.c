@@ -160,6 +160,10 @@ int cli_mpi_finish(int rc)
     if (!M.failed_agreed)
         rc = cli_mpi_agree(rc);
     MPI_Finalize();
+    /* reported once, outputs taken back: mpirun ends the ranks still exiting
+       with SIGTERM as soon as one exits non-zero, which is not an interruption */
+    if (rc != EXIT_OK)
+        cli_signals_settled();
     return rc;
 }
 

@@ -5,6 +5,9 @@ MPIEXEC=${IVOCT_MPIEXEC:?IVOCT_MPIEXEC must name mpirun}
 # the test machine has 2 cores; CI runs as root
 mpi_args=(--oversubscribe)
 [ "$(id -u)" -eq 0 ] && mpi_args+=(--allow-run-as-root)
+# Open MPI's shared-memory transport copies large messages (the gather) with CMA, which
+# a container without ptrace rights refuses: plain copies through the shared segment
+export OMPI_MCA_btl_vader_single_copy_mechanism=none
 # Open MPI's own allocations that it never frees show as leaks under LeakSanitizer:
 # suppressed for its libraries only (tests/mpi/lsan-openmpi.supp), never for ivoct's code;
 # full stacks, so that every one reaches the library that made the call

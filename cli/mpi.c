@@ -145,8 +145,13 @@ int cli_mpi_agree(int rc)
         }
     }
     free(text);
-    if (agreed != EXIT_OK)
+    if (agreed != EXIT_OK) {
+        /* from here every rank is on its way out: mpirun ends the slower ones
+           with SIGTERM once one exits non-zero, which is not an interruption
+           (the signal thread still removes the temporaries) */
         M.failed_agreed = 1;
+        cli_signals_settled();
+    }
     return agreed;
 }
 
@@ -160,10 +165,6 @@ int cli_mpi_finish(int rc)
     if (!M.failed_agreed)
         rc = cli_mpi_agree(rc);
     MPI_Finalize();
-    /* reported once, outputs taken back: mpirun ends the ranks still exiting
-       with SIGTERM as soon as one exits non-zero, which is not an interruption */
-    if (rc != EXIT_OK)
-        cli_signals_settled();
     return rc;
 }
 

@@ -10,6 +10,7 @@
 #include <stdio.h>
 
 #include "../expr/error.h"
+#include "../octree/octree.h"
 
 /* Exit codes (docs/DESIGN.md §4). */
 enum { EXIT_OK = 0, EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
@@ -78,6 +79,61 @@ int cli_parse(const cli_command_t *cmd, int argc, char **argv);
 /* The synopsis, then "  NAME ARG   help" for every option with help. */
 void cli_print_help(const cli_command_t *cmd, FILE *f);
 
+/* ---- ivoct build's job (cmd_build.c), shared with the build over MPI (mpi.c) ------- */
+
+struct scene;
+struct oct_tree;
+struct io_group;
+
+typedef struct exports {
+    const char *vtu, *htg, *vdb, *mesh;
+} exports_t;
+
+/* Keys added at the end of the stats file: write(f, user) prints
+ * ',\n  "key": value' lines. */
+typedef struct build_stats_extra {
+    void (*write)(FILE *f, void *user);
+    void *user;
+} build_stats_extra_t;
+
+typedef struct build_job {
+    const struct scene *scene;
+    oct_params_t params;          /* the scene's, overridden by the options */
+    const char *cells, *save, *stats;
+    exports_t ex;
+    int threads;                  /* --threads (0: all cores) */
+    size_t max_memory;            /* --max-memory (0: none) */
+} build_job_t;
+
+/* Write every output of job for tree into g (not committed): EXIT_OK, or
+ * EXIT_RUNTIME with err set. */
+int build_write_outputs(const build_job_t *job, const struct oct_tree *tree,
+                        struct io_group *g, const build_stats_extra_t *extra,
+                        ivoct_error_t *err);
+
+/* ---- MPI (mpi.c, only in a build with IVOCT_MPI) -------------------------------------
+ * Under mpirun (Open MPI's, or any that sets PMI/PMIx variables) main starts MPI
+ * before the command runs and ends it after; anywhere else nothing changes. */
+#ifdef IVOCT_MPI
+/* Start MPI when started by mpirun (before the command, after the signal
+ * thread); 0, or an exit code. */
+int cli_mpi_start(int *argc, char ***argv);
+/* The number of ranks when MPI was started, else 0. */
+int cli_mpi_ranks(void);
+/* The status every rank agrees on for a local rc (the failure of the lowest
+ * rank that failed, whose message rank 0 prints); collective. */
+int cli_mpi_agree(int rc);
+/* ivoct build over the ranks (docs/cluster.md); an exit code, the same on every rank. */
+int cli_mpi_build(const build_job_t *job, bool quiet);
+/* This rank's number (0 without MPI). */
+int cli_mpi_rank(void);
+/* The sum of v over the ranks, on every rank (collective). */
+uint64_t cli_mpi_sum_u64(uint64_t v);
+double cli_mpi_sum_double(double v);
+/* End MPI (when started); returns rc. */
+int cli_mpi_finish(int rc);
+#endif
+
 /* ---- helpers (util.c) ------------------------------------------------------------ */
 
 /* Print "ivoct CMD: message (see 'ivoct CMD --help')" to stderr; returns EXIT_USAGE. */
@@ -139,6 +195,11 @@ void cli_signals_start(const char *cmd);
 /* What main returns: rc, unless a signal is being handled, in which case this
  * waits for the signal thread to end the process. */
 int cli_signals_finish(int rc);
+
+/* The command's failure is reported and its outputs are taken back: a signal
+ * from now on ends the process without a message (mpirun ends the other ranks
+ * with SIGTERM as soon as one exits non-zero: cli/mpi.c). */
+void cli_signals_settled(void);
 
 /* The test hook (tests/test_signals.sh): when IVOCT_TEST_PAUSE_AT is `step`,
  * print "ivoct: test pause at STEP" on stderr and wait there for a signal.

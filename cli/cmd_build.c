@@ -35,7 +35,7 @@ static void json_u64_array(FILE *f, const uint64_t *v, int n)
 }
 
 static int write_stats(const scene_t *s, const oct_tree_t *t, io_group_t *g, const char *path,
-                       ivoct_error_t *err)
+                       const build_stats_extra_t *extra, ivoct_error_t *err)
 {
     const oct_stats_t *st = &t->stats;
     io_file_t f;
@@ -81,15 +81,15 @@ static int write_stats(const scene_t *s, const oct_tree_t *t, io_group_t *g, con
                "  \"bytes_per_leaf\": ",
             st->peak_bytes, t->n_nodes, storage);
     cli_json_double(o, t->n_leaves ? (double)storage / t->n_leaves : 0.0);
-    fprintf(o, ",\n  \"leaf_record_bytes\": %zu,\n  \"threads\": %d,\n  \"simd\": \"%s\"\n}\n",
+    fprintf(o, ",\n  \"leaf_record_bytes\": %zu,\n  \"threads\": %d,\n  \"simd\": \"%s\"",
             sizeof(oct_leaf_t), st->threads, tape_simd_name());
+    if (extra)
+        extra->write(o, extra->user);
+    fputs("\n}\n", o);
     return io_group_add(g, &f, err);
 }
 
 /* ---- exports (export/): --vtu --htg --vdb --mesh ---------------------------------- */
-typedef struct exports {
-    const char *vtu, *htg, *vdb, *mesh;
-} exports_t;
 
 /* Usage errors found before the build: exit 2, nothing built. */
 static int check_exports(const exports_t *ex)
@@ -223,6 +223,32 @@ static int check_export_memory(const oct_tree_t *t, const char *cells, const cha
     return 0;
 }
 
+/* Every output of the job but the commit: written into g (cmd_build, and
+ * rank 0 of the build over MPI with the outputs that are one file). */
+int build_write_outputs(const build_job_t *job, const oct_tree_t *tree, io_group_t *g,
+                        const build_stats_extra_t *extra, ivoct_error_t *err)
+{
+    const scene_t *s = job->scene;
+    const char *cells = job->cells, *save = job->save, *stats = job->stats;
+    const exports_t *ex = &job->ex;
+    size_t max_memory = job->max_memory;
+    if (max_memory && check_export_memory(tree, cells, save, ex, max_memory, err))
+        return EXIT_RUNTIME;
+    if (cells)
+        cli_test_pause("cells");
+    if (cells && write_cells(tree, g, cells, cells_threads(tree, job->threads, max_memory), err))
+        return EXIT_RUNTIME;
+    if (save && write_save(s, tree, g, save, err))
+        return EXIT_RUNTIME;
+    if (stats)
+        cli_test_pause("stats");
+    if (stats && write_stats(s, tree, g, stats, extra, err))
+        return EXIT_RUNTIME;
+    if (write_exports(s, tree, ex, g, err))
+        return EXIT_RUNTIME;
+    return EXIT_OK;
+}
+
 /* ---- options ------------------------------------------------------------------------ */
 
 static int parse_tests(const char *opt, const char *value, void *target, char *msg, size_t n)
@@ -279,13 +305,15 @@ int cmd_build(int argc, char **argv)
         {.name = "--cells", .kind = CLI_STRING, .target = &cells, .arg = "F.csv",
          .help = "surface leaves, one per line in Morton order:\n"
                  "x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi,nx,ny,nz,d_lo,d_hi,error_bound\n"
-                 "(the slab n.p in [d_lo, d_hi] is empty where a leaf has none)"},
+                 "(the slab n.p in [d_lo, d_hi] is empty where a leaf has none);\n"
+                 "under mpirun F.pcsv writes one piece per rank, F_<rank>.csv"},
         {.name = "--save", .kind = CLI_STRING, .target = &save, .arg = "F.ivo",
          .help = "the octree with its scene, for ivoct info and ivoct render"},
         {.name = "--stats", .kind = CLI_STRING, .target = &stats, .arg = "F.json",
          .help = "build statistics (keys in octree/README.md)"},
         {.name = "--vtu", .kind = CLI_STRING, .target = &ex.vtu, .arg = "F.vtu",
-         .help = "surface leaves as VTK voxels (depth, f_lo, f_hi, error_bound)"},
+         .help = "surface leaves as VTK voxels (depth, f_lo, f_hi, error_bound);\n"
+                 "under mpirun F.pvtu writes one piece per rank, F_<rank>.vtu"},
         {.name = "--htg", .kind = CLI_STRING, .target = &ex.htg, .arg = "F.htg",
          .help = "the whole octree as a VTK HyperTreeGrid (see docs/paraview.md)"},
         {.name = "--vdb", .kind = CLI_STRING, .target = &ex.vdb, .arg = "F.vdb",
@@ -337,6 +365,14 @@ int cmd_build(int argc, char **argv)
     p.max_memory = max_memory;
     p.progress = !quiet && isatty(2) ? cli_show_progress : NULL;
     p.progress_user = &prog;
+    const build_job_t job = {&s, p, cells, save, stats, ex, (int)threads, max_memory};
+#ifdef IVOCT_MPI
+    if (cli_mpi_ranks()) {
+        /* started by mpirun: the build and the outputs spread over the ranks */
+        rc = cli_mpi_build(&job, quiet);
+        goto out;
+    }
+#endif
     oct_tree_t *tree;
     cli_test_pause("build");
     if (oct_build(s.tape, s.box, &p, &tree, &err)) {
@@ -347,21 +383,7 @@ int cmd_build(int argc, char **argv)
     /* every output goes to a temporary name; all are renamed at the end, and
      * only when all were written (the commit group) */
     io_group_t g = IO_GROUP_INIT;
-    if (max_memory && check_export_memory(tree, cells, save, &ex, max_memory, &err))
-        rc = EXIT_RUNTIME;
-    if (rc == EXIT_OK && cells)
-        cli_test_pause("cells");
-    if (rc == EXIT_OK && cells &&
-        write_cells(tree, &g, cells, cells_threads(tree, (int)threads, max_memory), &err))
-        rc = EXIT_RUNTIME;
-    if (rc == EXIT_OK && save && write_save(&s, tree, &g, save, &err))
-        rc = EXIT_RUNTIME;
-    if (rc == EXIT_OK && stats)
-        cli_test_pause("stats");
-    if (rc == EXIT_OK && stats && write_stats(&s, tree, &g, stats, &err))
-        rc = EXIT_RUNTIME;
-    if (rc == EXIT_OK && write_exports(&s, tree, &ex, &g, &err))
-        rc = EXIT_RUNTIME;
+    rc = build_write_outputs(&job, tree, &g, NULL, &err);
     if (rc == EXIT_OK) {
         cli_test_pause("commit");
         if (io_group_commit(&g, &err))

@@ -491,7 +491,15 @@ int cmd_render(int argc, char **argv)
     }
     ray_stats_t total = {0};
     cli_test_pause("render");
+    /* under mpirun the frames are dealt out to the ranks, k mod N (cli/mpi.c) */
+    int rank = 0, ranks = 1;
+#ifdef IVOCT_MPI
+    if (cli_mpi_ranks())
+        ranks = cli_mpi_ranks(), rank = cli_mpi_rank();
+#endif
     for (int k = 0; k < frames; k++) {
+        if (k % ranks != rank)
+            continue;
         ray_camera_t cam;
         const double two_pi = 6.283185307179586;
         if (ray_camera_orbit(&cam0, two_pi * k / (double)frames, &cam, &err)) {
@@ -523,12 +531,30 @@ int cmd_render(int argc, char **argv)
             goto out;
         }
     }
-    if (stats &&
+#ifdef IVOCT_MPI
+    if (ranks > 1) {
+        /* every rank rendered its frames: the totals are over all of them */
+        if ((rc = cli_mpi_agree(EXIT_OK)))
+            goto out;
+        uint64_t *counts[] = {&total.rays, &total.hits, &total.tangent_hits, &total.tape_evals,
+                              &total.segments, &total.leaves};
+        for (size_t i = 0; i < sizeof counts / sizeof *counts; i++)
+            *counts[i] = cli_mpi_sum_u64(*counts[i]);
+        total.time_s = cli_mpi_sum_double(total.time_s);
+        total.threads = (int)cli_mpi_sum_u64((uint64_t)total.threads);
+    }
+#endif
+    if (stats && rank == 0 &&
         write_stats(&group, stats, &s, method, width, height, (int)frames, &total, &oi, &err)) {
         fprintf(stderr, "ivoct render: %s\n", err.msg);
         rc = EXIT_RUNTIME;
         goto out;
     }
+#ifdef IVOCT_MPI
+    /* renamed only once every rank has written all of its frames */
+    if (ranks > 1 && (rc = cli_mpi_agree(EXIT_OK)))
+        goto out;
+#endif
     cli_test_pause("commit");
     if (io_group_commit(&group, &err)) {
         fprintf(stderr, "ivoct render: %s\n", err.msg);

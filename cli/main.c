@@ -68,6 +68,15 @@ int main(int argc, char **argv)
         if (!strcmp(cmd, commands[i].name)) {
             /* before any thread is started */
             cli_signals_start(commands[i].name);
+#ifdef IVOCT_MPI
+            /* under mpirun, `build` and `render` run over the ranks (cli/mpi.c) */
+            if (commands[i].run == cmd_build || commands[i].run == cmd_render) {
+                int rc = cli_mpi_start(&argc, &argv);
+                if (rc)
+                    return cli_signals_finish(rc);
+                return cli_signals_finish(cli_mpi_finish(commands[i].run(argc - 1, argv + 1)));
+            }
+#endif
             return cli_signals_finish(commands[i].run(argc - 1, argv + 1));
         }
     fprintf(stderr, "ivoct: unknown command '%s'\n%s", cmd, USAGE);

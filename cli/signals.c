@@ -25,6 +25,7 @@
 static sigset_t handled;
 static const char *command = "ivoct";
 static atomic_int interrupted;
+static atomic_int settled; /* cli_signals_settled: nothing to report any more */
 atomic_int cli_progress_open;
 
 static void say(const char *s)
@@ -61,7 +62,8 @@ static void *signal_thread(void *arg)
     const char *name = sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "SIGHUP";
     char line[160];
     snprintf(line, sizeof line, "ivoct %s: interrupted by %s\n", command, name);
-    say(line);
+    if (!atomic_load(&settled))
+        say(line);
     raise(sig);
     _exit(128 + sig); /* not reached: the default action ends the process */
 }
@@ -92,6 +94,8 @@ void cli_signals_start(const char *cmd)
         pthread_sigmask(SIG_UNBLOCK, &handled, NULL); /* no thread: default actions */
     pthread_attr_destroy(&attr);
 }
+
+void cli_signals_settled(void) { atomic_store(&settled, 1); }
 
 int cli_signals_finish(int rc)
 {

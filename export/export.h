@@ -60,6 +60,18 @@ size_t exp_cells_memory(const oct_tree_t *tree, int threads);
 int exp_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *path,
             ivoct_error_t *err);
 
+/* The index of a partitioned .vtu (ivoct build over MPI): a .pvtu naming the
+ * pieces sources[0..n) (paths relative to the index's folder) and declaring
+ * their arrays as the file `piece` (any one of them, already written) has
+ * them; VTK's vtkXMLPUnstructuredGridReader and ParaView read it. */
+int exp_pvtu_index(const char *path, const char *piece, const char *const *sources, int n,
+                   ivoct_error_t *err);
+/* The index of a partitioned cell list (.pcsv): a comment line, then one line
+ * `source,leaves` per piece (CSV files as exp_cells writes them), in order:
+ * their rows together are the single file's rows (each piece in Morton order;
+ * the pieces of ranks that shared work interleave). */
+int exp_cells_index(const char *path, const char *const *sources, const uint64_t *leaves, int n,
+                    ivoct_error_t *err);
 /* .htg: a HyperTreeGrid of the whole octree: the root split into a 2x2x2 grid
  * of trees (one tree, the root, when the root is not split), every node a cell,
  * coarse ones included, cell data

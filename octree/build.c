@@ -462,7 +462,7 @@ fail:
     return -1;
 }
 
-static void add_stats(oct_stats_t *to, const oct_stats_t *from)
+void oct_stats_add(oct_stats_t *to, const oct_stats_t *from)
 {
     to->cells_visited += from->cells_visited;
     to->split += from->split;
@@ -500,103 +500,327 @@ static int check_params(const tape_t *t, const double box[6], const oct_params_t
     return 0;
 }
 
-int oct_build(const tape_t *t, const double box[6], const oct_params_t *params,
-              oct_tree_t **out, ivoct_error_t *err)
+/* ---- the plan: oct_build in parts (octree.h) ---------------------------------------- */
+
+struct oct_plan {
+    build_t b;
+    oct_params_t params;
+    int nthreads;
+    worker_t *workers; /* their stats count the top phase only */
+    pool_t top;
+    frontier_t *front;
+    size_t nfront;
+    double t0;
+    int finished;      /* oct_plan_finish took the pools */
+};
+
+/* The build's failure as a message; 0 when it has not failed. */
+static int plan_failed(oct_plan_t *pl, ivoct_error_t *err)
+{
+    int failed = atomic_load(&pl->b.failed);
+    if (failed == BUILD_OVER_BUDGET)
+        ivoct_error_set(err, "memory budget of %zu bytes exceeded (raise --max-memory)",
+                        pl->b.max_memory);
+    else if (failed)
+        ivoct_error_set(err, "out of memory");
+    return failed ? -1 : 0;
+}
+
+void oct_plan_free(oct_plan_t *pl)
+{
+    if (!pl)
+        return;
+    frontier_free(&pl->b, pl->front, pl->nfront);
+    pool_free(&pl->b, &pl->top);
+    if (pl->workers)
+        for (int i = 0; i < pl->nthreads; i++)
+            worker_free(&pl->workers[i]);
+    free(pl->workers);
+    free(pl);
+}
+
+int oct_plan_new(const tape_t *t, const double box[6], const oct_params_t *params,
+                 oct_plan_t **out, ivoct_error_t *err)
 {
     *out = NULL;
     if (check_params(t, box, params, err))
         return -1;
-    double t0 = omp_get_wtime();
-    build_t b;
-    memset(&b, 0, sizeof b);
-    b.tape = t;
-    memcpy(b.box, box, sizeof b.box);
-    b.max_depth = params->depth;
-    b.tests = params->tests;
-    b.refine = params->refine;
-    b.slabs_unused = params->slabs_unused;
-    b.choices = tape_has_choices(t);
-    b.max_memory = params->max_memory;
-    atomic_init(&b.bytes, 0);
-    atomic_init(&b.peak, 0);
-    atomic_init(&b.failed, 0);
+    oct_plan_t *pl = calloc(1, sizeof *pl);
+    if (!pl) {
+        ivoct_error_set(err, "out of memory");
+        return -1;
+    }
+    pl->t0 = omp_get_wtime();
+    pl->params = *params;
+    build_t *b = &pl->b;
+    b->tape = t;
+    memcpy(b->box, box, sizeof b->box);
+    b->max_depth = params->depth;
+    b->tests = params->tests;
+    b->refine = params->refine;
+    b->slabs_unused = params->slabs_unused;
+    b->choices = tape_has_choices(t);
+    b->max_memory = params->max_memory;
+    atomic_init(&b->bytes, 0);
+    atomic_init(&b->peak, 0);
+    atomic_init(&b->failed, 0);
 
-    int nthreads = params->threads > 0 ? params->threads : omp_get_num_procs();
-    worker_t *workers = calloc((size_t)nthreads, sizeof *workers);
+    pl->nthreads = params->threads > 0 ? params->threads : omp_get_num_procs();
+    pl->workers = calloc((size_t)pl->nthreads, sizeof *pl->workers);
+    int ok = pl->workers != NULL;
+    for (int i = 0; ok && i < pl->nthreads; i++)
+        ok = worker_init(&pl->workers[i], b) == 0;
+    if (!ok) {
+        ivoct_error_set(err, "out of memory");
+        oct_plan_free(pl);
+        return -1;
+    }
+    b->single_use = tape_is_single_use(t, pl->workers[0].scratch);
+    if (top_phase(&pl->workers[0], &pl->top, &pl->front, &pl->nfront)) {
+        if (!plan_failed(pl, err))
+            ivoct_error_set(err, "out of memory");
+        oct_plan_free(pl);
+        return -1;
+    }
+    *out = pl;
+    return 0;
+}
+
+size_t oct_plan_subtrees(const oct_plan_t *pl) { return pl->nfront; }
+
+int oct_plan_subtree_depth(const oct_plan_t *pl)
+{
+    return pl->nfront ? pl->front[0].cell.depth : 0;
+}
+
+uint64_t oct_plan_subtree_code(const oct_plan_t *pl, size_t i) { return pl->front[i].cell.code; }
+
+int oct_plan_has(const oct_plan_t *pl, size_t i)
+{
+    return i < pl->nfront && pl->front[i].present;
+}
+
+int oct_plan_build(oct_plan_t *pl, const size_t *which, size_t n, ivoct_error_t *err)
+{
+    if (pl->finished) {
+        ivoct_error_set(err, "the plan is finished");
+        return -1;
+    }
+    for (size_t k = 0; k < n; k++)
+        if (which[k] >= pl->nfront) {
+            ivoct_error_set(err, "no subtree %zu (the plan has %zu)", which[k], pl->nfront);
+            return -1;
+        }
+    const oct_params_t *params = &pl->params;
+    atomic_size_t finished;
+    atomic_init(&finished, 0);
+    /* dynamic: subtrees differ in cost by orders of magnitude */
+#pragma omp parallel for num_threads(pl->nthreads) schedule(dynamic, 1)
+    for (size_t k = 0; k < n; k++) {
+        frontier_t *e = &pl->front[which[k]];
+        if (e->present)
+            continue;
+        worker_t *w = &pl->workers[omp_get_thread_num()];
+        /* the subtree's counts on their own, so that a part of the tree (or a
+           subtree sent elsewhere) carries its own; the worker keeps the top's */
+        oct_stats_t kept = w->st;
+        double kept_d2 = w->max_diagonal2;
+        memset(&w->st, 0, sizeof w->st);
+        w->max_diagonal2 = 0;
+        e->base = build_subtree(w, w->wave, &e->pool, e->cell, &e->tape, e->single_use);
+        pool_shrink(w->b, &e->pool);
+        e->st = w->st;
+        e->max_diagonal2 = w->max_diagonal2;
+        e->present = e->base >= 0;
+        w->st = kept;
+        w->max_diagonal2 = kept_d2;
+        size_t done = atomic_fetch_add(&finished, 1) + 1;
+        if (params->progress && omp_get_thread_num() == 0)
+            params->progress(params->progress_user, (double)done / (double)n);
+    }
+    return plan_failed(pl, err);
+}
+
+int oct_plan_get(const oct_plan_t *pl, size_t i, oct_subtree_t *out)
+{
+    if (!oct_plan_has(pl, i) || pl->finished)
+        return -1;
+    const frontier_t *e = &pl->front[i];
+    out->base = (uint32_t)e->base;
+    out->n_nodes = (uint32_t)e->pool.n;
+    out->n_leaves = (uint32_t)e->pool.nl;
+    out->nodes = e->pool.nodes;
+    out->leaves = e->pool.leaves;
+    out->slabs = build_keeps_slabs(&pl->b) ? e->pool.slabs : NULL;
+    out->stats = e->st;
+    out->max_diagonal2 = e->max_diagonal2;
+    return 0;
+}
+
+/* A subtree's words index its own arrays, the children of each interior word
+ * after it (as the build makes them), and base is a block. */
+static int subtree_valid(const oct_subtree_t *s)
+{
+    if (s->n_nodes < 8 || s->base > s->n_nodes - 8 || s->base % 8)
+        return 0;
+    for (uint32_t j = 0; j < s->n_nodes; j++) {
+        oct_node_t v = s->nodes[j];
+        uint32_t kind = OCT_NODE_KIND(v), val = OCT_NODE_VALUE(v);
+        if ((kind == OCT_INTERIOR && (val > s->n_nodes - 8 || val % 8 || val <= j)) ||
+            (kind == OCT_LEAF && val >= s->n_leaves) || (kind == OCT_EMPTY && val > OCT_UNDEFINED) ||
+            kind > OCT_EMPTY)
+            return 0;
+    }
+    return 1;
+}
+
+int oct_plan_put(oct_plan_t *pl, size_t i, const oct_subtree_t *in, ivoct_error_t *err)
+{
+    if (pl->finished || i >= pl->nfront) {
+        ivoct_error_set(err, "no subtree %zu to put (the plan has %zu)", i, pl->nfront);
+        return -1;
+    }
+    int slabs = build_keeps_slabs(&pl->b);
+    if (!subtree_valid(in) || (slabs && in->n_leaves && !in->slabs)) {
+        ivoct_error_set(err, "subtree %zu is corrupt", i);
+        return -1;
+    }
+    frontier_t *e = &pl->front[i];
+    pool_free(&pl->b, &e->pool);
+    e->present = 0;
+    pool_t *p = &e->pool;
+    p->nodes = build_grow(&pl->b, NULL, &p->cap, in->n_nodes, sizeof *p->nodes);
+    p->leaves = in->n_leaves ? build_grow(&pl->b, NULL, &p->capl, in->n_leaves, sizeof *p->leaves)
+                             : NULL;
+    if (slabs && in->n_leaves)
+        p->slabs = build_grow(&pl->b, NULL, &p->caps, in->n_leaves, sizeof *p->slabs);
+    if (!p->nodes || (in->n_leaves && !p->leaves) || (slabs && in->n_leaves && !p->slabs))
+        return plan_failed(pl, err) ? -1 : (ivoct_error_set(err, "out of memory"), -1);
+    memcpy(p->nodes, in->nodes, in->n_nodes * sizeof *p->nodes);
+    p->n = in->n_nodes;
+    if (in->n_leaves) {
+        memcpy(p->leaves, in->leaves, in->n_leaves * sizeof *p->leaves);
+        if (slabs)
+            memcpy(p->slabs, in->slabs, in->n_leaves * sizeof *p->slabs);
+    }
+    p->nl = in->n_leaves;
+    e->base = (long)in->base;
+    e->st = in->stats;
+    e->max_diagonal2 = in->max_diagonal2;
+    e->present = 1;
+    return 0;
+}
+
+int oct_plan_finish(oct_plan_t *pl, unsigned flags, oct_tree_t **out, ivoct_error_t *err)
+{
+    *out = NULL;
+    if (pl->finished) {
+        ivoct_error_set(err, "the plan is finished");
+        return -1;
+    }
+    int part = (flags & OCT_PLAN_PART) != 0;
+    int top = !part || !(flags & OCT_PLAN_NO_TOP);
+    size_t held = 0;
+    for (size_t i = 0; i < pl->nfront; i++)
+        held += pl->front[i].present != 0;
+    if (!part && held < pl->nfront) {
+        ivoct_error_set(err, "%zu of the %zu subtrees are missing", pl->nfront - held, pl->nfront);
+        return -1;
+    }
     oct_tree_t *tree = calloc(1, sizeof *tree);
-    pool_t top = {0};
-    frontier_t *front = NULL;
-    size_t nfront = 0;
-    int ok = workers && tree;
-    for (int i = 0; ok && i < nthreads; i++)
-        ok = worker_init(&workers[i], &b) == 0;
-    if (!ok) {
+    frontier_t *front = pl->front;
+    if (held < pl->nfront)
+        front = malloc((held ? held : 1) * sizeof *front);
+    if (!tree || (held < pl->nfront && !front)) {
+        free(tree);
+        if (front != pl->front)
+            free(front);
         ivoct_error_set(err, "out of memory");
-        goto done;
+        return -1;
     }
-
-    b.single_use = tape_is_single_use(t, workers[0].scratch);
-    if (top_phase(&workers[0], &top, &front, &nfront) == 0 && nfront > 0) {
-        atomic_size_t finished;
-        atomic_init(&finished, 0);
-#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1)
-        for (size_t i = 0; i < nfront; i++) {
-            worker_t *w = &workers[omp_get_thread_num()];
-            frontier_t *e = &front[i];
-            e->base = build_subtree(w, w->wave, &e->pool, e->cell, &e->tape, e->single_use);
-            pool_shrink(w->b, &e->pool);
-            size_t done = atomic_fetch_add(&finished, 1) + 1;
-            if (params->progress && omp_get_thread_num() == 0)
-                params->progress(params->progress_user, (double)done / (double)nfront);
+    if (front != pl->front) {
+        /* the subtrees held, in frontier order (the assembly's Morton walk
+           relies on it); the others' cells are left empty */
+        size_t k = 0;
+        for (size_t i = 0; i < pl->nfront; i++) {
+            if (pl->front[i].present)
+                front[k++] = pl->front[i];
+            else
+                pl->top.nodes[pl->front[i].slot] = OCT_NODE(OCT_EMPTY, OCT_OUTSIDE);
         }
     }
-
-    int failed = atomic_load(&b.failed);
-    if (!failed)
-        pool_assemble(&b, &top, front, nfront, tree);
-    failed = atomic_load(&b.failed);
-    if (failed == BUILD_OVER_BUDGET) {
-        ivoct_error_set(err, "memory budget of %zu bytes exceeded (raise --max-memory)",
-                        b.max_memory);
-        ok = 0;
-    } else if (failed) {
-        ivoct_error_set(err, "out of memory");
-        ok = 0;
+    if (!top) {
+        /* the leaves above the frontier stay out of this part */
+        for (size_t j = 0; j < pl->top.n; j++)
+            if (OCT_NODE_KIND(pl->top.nodes[j]) == OCT_LEAF)
+                pl->top.nodes[j] = OCT_NODE(OCT_EMPTY, OCT_OUTSIDE);
+        pl->top.nl = 0;
     }
-    if (ok) {
-        memcpy(tree->box, box, sizeof tree->box);
-        tree->depth = params->depth;
-        tree->tests = params->tests;
-        tree->refine = params->refine;
-        double d2 = 0;
-        for (int i = 0; i < nthreads; i++) {
-            add_stats(&tree->stats, &workers[i].st);
-            d2 = workers[i].max_diagonal2 > d2 ? workers[i].max_diagonal2 : d2;
-        }
-        /* the leaves without a slab: their largest diagonal (cell.c) */
-        double diagonal = d2 > 0 ? cell_diagonal_of_squared(d2) : 0.0;
-        if (diagonal > tree->stats.max_error_bound)
-            tree->stats.max_error_bound = diagonal;
-        tree->stats.threads = nthreads;
-        tree->stats.peak_bytes = atomic_load(&b.peak);
-        tree->stats.time_s = omp_get_wtime() - t0;
-        if (params->progress)
-            params->progress(params->progress_user, 1.0);
+    pl->finished = 1;
+    pool_assemble(&pl->b, &pl->top, front, held, tree);
+    if (front != pl->front) {
+        /* the held pools belong to the copies now: the assembly freed some */
+        for (size_t k = 0; k < held; k++)
+            pool_free(&pl->b, &front[k].pool);
+        for (size_t i = 0; i < pl->nfront; i++)
+            if (pl->front[i].present)
+                memset(&pl->front[i].pool, 0, sizeof pl->front[i].pool);
+        free(front);
     }
-
-done:
-    frontier_free(&b, front, nfront);
-    pool_free(&b, &top);
-    if (workers)
-        for (int i = 0; i < nthreads; i++)
-            worker_free(&workers[i]);
-    free(workers);
-    if (!ok) {
+    if (plan_failed(pl, err)) {
         oct_free(tree);
         return -1;
     }
+    const oct_params_t *params = &pl->params;
+    memcpy(tree->box, pl->b.box, sizeof tree->box);
+    tree->depth = params->depth;
+    tree->tests = params->tests;
+    tree->refine = params->refine;
+    double d2 = 0;
+    if (top)
+        for (int i = 0; i < pl->nthreads; i++) {
+            oct_stats_add(&tree->stats, &pl->workers[i].st);
+            d2 = pl->workers[i].max_diagonal2 > d2 ? pl->workers[i].max_diagonal2 : d2;
+        }
+    for (size_t i = 0; i < pl->nfront; i++)
+        if (pl->front[i].present) {
+            oct_stats_add(&tree->stats, &pl->front[i].st);
+            d2 = pl->front[i].max_diagonal2 > d2 ? pl->front[i].max_diagonal2 : d2;
+        }
+    /* the leaves without a slab: their largest diagonal (cell.c) */
+    double diagonal = d2 > 0 ? cell_diagonal_of_squared(d2) : 0.0;
+    if (diagonal > tree->stats.max_error_bound)
+        tree->stats.max_error_bound = diagonal;
+    tree->stats.threads = pl->nthreads;
+    tree->stats.peak_bytes = atomic_load(&pl->b.peak);
+    tree->stats.time_s = omp_get_wtime() - pl->t0;
+    if (params->progress)
+        params->progress(params->progress_user, 1.0);
     *out = tree;
     return 0;
+}
+
+int oct_build(const tape_t *t, const double box[6], const oct_params_t *params,
+              oct_tree_t **out, ivoct_error_t *err)
+{
+    *out = NULL;
+    oct_plan_t *pl;
+    if (oct_plan_new(t, box, params, &pl, err))
+        return -1;
+    size_t n = oct_plan_subtrees(pl);
+    size_t *all = malloc((n ? n : 1) * sizeof *all);
+    int rc = all ? 0 : -1;
+    if (!all)
+        ivoct_error_set(err, "out of memory");
+    for (size_t i = 0; i < n && all; i++)
+        all[i] = i;
+    if (!rc)
+        rc = oct_plan_build(pl, all, n, err);
+    free(all);
+    if (!rc)
+        rc = oct_plan_finish(pl, 0, out, err);
+    oct_plan_free(pl);
+    return rc;
 }
 
 void oct_free(oct_tree_t *tree)

@@ -109,6 +109,9 @@ typedef struct frontier {
     size_t slot;    /* index in the top pool of the node word to fill */
     pool_t pool;    /* the subtree, built in phase 2 */
     long base;      /* the index in pool of the cell's children block */
+    int present;    /* the subtree is built here or was put (oct_plan_put) */
+    oct_stats_t st; /* its counts alone (the workers' hold the top phase's) */
+    double max_diagonal2; /* worker_t.max_diagonal2 over this subtree */
 } frontier_t;
 
 /* ---- cell.c ----

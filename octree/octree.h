@@ -153,6 +153,69 @@ int oct_build(const tape_t *t, const double box[6], const oct_params_t *params,
 
 void oct_free(oct_tree_t *tree);
 
+/* ---- a build in parts (for a build spread over processes: cli/mpi.c) ----------
+ * oct_build first splits the box breadth-first on one thread until at least
+ * 256 cells are to be split (or none are): the frontier, all at one depth,
+ * the same cells for any thread count.  Each frontier cell's subtree is then
+ * built on its own, with the root box's coordinates and the tape pruned on
+ * the way down, so any process that has the plan can build any of them; the
+ * parts put together give the tree of oct_build node for node (the same file).
+ *   oct_plan_new      the top of the tree and the frontier (cheap)
+ *   oct_plan_build    build some subtrees, on the plan's threads
+ *   oct_plan_get/put  a built subtree as flat arrays, to send and receive
+ *   oct_plan_finish   the tree: every subtree (oct_build's tree), or a part
+ * oct_build is these four calls.  The memory budget covers the whole plan. */
+typedef struct oct_plan oct_plan_t;
+
+/* One subtree, flat: node words index its own arrays (an interior word the
+ * first of 8 children in nodes, a leaf word an index in leaves); `base` is
+ * the first of the frontier cell's 8 children.  `stats` and `max_diagonal2`
+ * are its share of the build's counts (cells, leaves, tests). */
+typedef struct oct_subtree {
+    uint32_t base, n_nodes, n_leaves;
+    const oct_node_t *nodes;
+    const oct_leaf_t *leaves;
+    const oct_slab_t *slabs; /* n_leaves, or NULL when the build keeps none */
+    oct_stats_t stats;
+    double max_diagonal2;    /* the largest squared diagonal of a leaf without a slab */
+} oct_subtree_t;
+
+int oct_plan_new(const tape_t *t, const double box[6], const oct_params_t *params,
+                 oct_plan_t **out, ivoct_error_t *err);
+void oct_plan_free(oct_plan_t *plan);
+/* The frontier: how many subtrees, their depth, the Morton code of number i
+ * at that depth (increasing with i). */
+size_t oct_plan_subtrees(const oct_plan_t *plan);
+int oct_plan_subtree_depth(const oct_plan_t *plan);
+uint64_t oct_plan_subtree_code(const oct_plan_t *plan, size_t i);
+/* Does the plan hold subtree i (built or put)? */
+int oct_plan_has(const oct_plan_t *plan, size_t i);
+/* Build subtrees which[0..n) (those not held yet) on the plan's threads. */
+int oct_plan_build(oct_plan_t *plan, const size_t *which, size_t n, ivoct_error_t *err);
+/* Subtree i, borrowed from the plan (valid until oct_plan_finish or _free);
+ * -1 when the plan does not hold it. */
+int oct_plan_get(const oct_plan_t *plan, size_t i, oct_subtree_t *out);
+/* Copy subtree i into the plan (from another process: its indices are
+ * checked, so a bad one is an error, not a crash). */
+int oct_plan_put(oct_plan_t *plan, size_t i, const oct_subtree_t *in, ivoct_error_t *err);
+
+enum {
+    /* the subtrees the plan does not hold become empty cells (class
+       OCT_OUTSIDE) instead of an error: a process's part of the tree */
+    OCT_PLAN_PART = 1u,
+    /* with OCT_PLAN_PART: also drop the leaves above the frontier (one
+       process's part has them, the others' do not) */
+    OCT_PLAN_NO_TOP = 2u,
+};
+/* The tree of the subtrees held (with the counts of what it holds: stats
+ * summed over its subtrees, plus the top phase's unless OCT_PLAN_NO_TOP).
+ * The subtrees' storage moves into the tree: afterwards the plan can only be
+ * freed. */
+int oct_plan_finish(oct_plan_t *plan, unsigned flags, oct_tree_t **out, ivoct_error_t *err);
+
+/* Add the counts of from to to (sums, and the largest error bound). */
+void oct_stats_add(oct_stats_t *to, const oct_stats_t *from);
+
 /* Bound number i of 2^depth equal parts of [lo, hi]: oct_coord(lo, hi, 0, d) = lo,
  * oct_coord(lo, hi, 2^d, d) = hi, monotone in i, and the same double for the
  * same fraction i / 2^d at any depth. */

@@ -2,8 +2,8 @@
 // whole octree as a HyperTreeGrid), .vtp meshes, and reading them back for
 // `ivoct info`.
 //
-// VTK writers write into a temporary file of io/io.h (one path for temporary
-// names, devices and errors) through a stream set on the writer: write_xml.
+// VTK writers are asked for a string (WriteToOutputString) which goes to the
+// file through io/io.h: one path for temporary names, devices and errors.
 #include <algorithm>
 #include <array>
 #include <cctype>

@@ -53,8 +53,6 @@ public:
     Output(const Output &) = delete;
     Output &operator=(const Output &) = delete;
     FILE *file() { return f_.f; }
-    // a regular (temporary) file, which can seek; not a device written in place
-    bool seekable() const { return f_.tmp != nullptr; }
     const char *path() const { return path_.c_str(); }
     void write(const void *data, size_t n);
     void commit();  // throws Error naming the path and the reason

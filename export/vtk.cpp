@@ -7,14 +7,11 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
-#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <map>
 #include <memory>
-
-#include <ext/stdio_filebuf.h>  // libstdc++: a seekable std::streambuf on a FILE
 
 #include <vtkCellArray.h>
 #include <vtkCellData.h>
@@ -165,54 +162,28 @@ void add_field_data(vtkFieldData *fd, const oct_tree_t *tree, const oct_source_t
 }
 
 // The writer's output string itself (a protected member; GetOutputString
-// returns a copy of what may be hundreds of MB), and its output stream (a
-// protected member too: a stream set there is the one vtkXMLWriter::OpenStream
-// writes to).
+// returns a copy of what may be hundreds of MB).
 struct OutputStringOf : vtkXMLWriterBase {
     static std::string &of(vtkXMLWriterBase *w) { return w->*(&OutputStringOf::OutputString); }
-};
-struct StreamOf : vtkXMLWriter {
-    static ostream *&of(vtkXMLWriter *w) { return w->*(&StreamOf::Stream); }
 };
 
 template <class Writer> void write_xml(Writer *w, vtkDataObject *data, const char *path)
 {
     Quiet q(w);
     w->SetInputData(data);
+    w->SetWriteToOutputString(true);
     w->SetHeaderTypeToUInt64();
     // LZ4: at depth 9 about twice the size of zlib's output in half the time or
     // less (zlib's deflate was most of the writers' time); VTK >= 8.2 reads it
     w->SetCompressorTypeToLZ4();
-    auto failed = [&] {
+    if (!w->Write()) {
         std::string m = q.message();
-        return Error(std::string("cannot write ") + path + ": " + (m.empty() ? "VTK writer failed" : m));
-    };
-    Output out(path);
-    if (out.seekable()) {
-        // VTK writes straight into the temporary file (it seeks back to fill in
-        // the compressed blocks' headers): no string of the whole file to grow
-        // and copy.  libstdc++'s stdio_filebuf writes through the FILE's
-        // descriptor, which nothing else writes to until io_commit.
-        __gnu_cxx::stdio_filebuf<char> buf(out.file(), std::ios::out | std::ios::binary,
-                                           (size_t)1 << 20);
-        std::ostream os(&buf);
-        StreamOf::of(w) = &os;
-        const int ok = w->Write();
-        StreamOf::of(w) = nullptr;
-        os.flush();
-        if (!ok)
-            throw failed();
-        if (!os)
-            throw Error(std::string("cannot write ") + path + ": " +
-                        std::strerror(errno ? errno : EIO));
-    } else {  // a device: written in place, in one piece
-        w->SetWriteToOutputString(true);
-        if (!w->Write())
-            throw failed();
-        std::string &s = OutputStringOf::of(w);
-        out.write(s.data(), s.size());
-        std::string().swap(s);
+        throw Error(std::string("cannot write ") + path + ": " + (m.empty() ? "VTK writer failed" : m));
     }
+    Output out(path);
+    std::string &s = OutputStringOf::of(w);
+    out.write(s.data(), s.size());
+    std::string().swap(s);
     out.commit();
 }
 

@@ -201,8 +201,9 @@ int cli_signals_finish(int rc);
  * with SIGTERM as soon as one exits non-zero: cli/mpi.c). */
 void cli_signals_settled(void);
 
-/* The test hook (tests/test_signals.sh): when IVOCT_TEST_PAUSE_AT is `step`,
- * print "ivoct: test pause at STEP" on stderr and wait there for a signal.
+/* The test hook (tests/test_signals.sh): when IVOCT_TEST_PAUSE_AT is `step`
+ * (or a comma-separated list of steps that holds it), print "ivoct: test pause
+ * at STEP" on stderr and wait there for a signal.
  * Steps: build (before the octree is built), each output of build (cells,
  * save, stats, vtu, htg, vdb, mesh: before it is written), commit (before the
  * outputs are renamed into place), render, frame (before each frame's files),

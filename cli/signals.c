@@ -109,7 +109,14 @@ int cli_signals_finish(int rc)
 void cli_test_pause(const char *step)
 {
     const char *at = getenv("IVOCT_TEST_PAUSE_AT");
-    if (!at || strcmp(at, step))
+    size_t n = strlen(step);
+    /* a comma-separated list of steps: pause at each of them */
+    while (at && !(strncmp(at, step, n) == 0 && (at[n] == ',' || at[n] == 0))) {
+        at = strchr(at, ',');
+        if (at)
+            at++;
+    }
+    if (!at)
         return;
     char line[160];
     snprintf(line, sizeof line, "ivoct: test pause at %s\n", step);

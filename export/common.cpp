@@ -5,6 +5,8 @@
 #include <ctime>
 #include <dirent.h>
 #include <fcntl.h>
+#include <poll.h>
+#include <sys/prctl.h>
 #include <cstring>
 #include <strings.h>
 #include <sys/resource.h>
@@ -166,8 +168,7 @@ extern "C" void __sanitizer_set_death_callback(void (*)(void)) __attribute__((we
 // that the sanitizers' reserved shadow memory does not count); past that an allocation
 // fails, which the readers report (bad_alloc) or die of.
 // CPU seconds the child may take (the depth-9 exports of the tests read in about 1 s),
-// and wall-clock seconds: a child that waits forever (a lock inherited at the fork, see
-// below) uses no CPU, so only an alarm ends it
+// and wall-clock seconds (the parent ends a child that takes longer)
 constexpr rlim_t CHILD_CPU_SECONDS = 120;
 constexpr unsigned CHILD_WALL_SECONDS = 600;
 
@@ -240,25 +241,64 @@ void wait_for_other_threads_asleep()
     }
 }
 
-int info_in_child(Format fmt, const char *path, FILE *out, ivoct_error_t *err)
+// The CPU time (user + system, in clock ticks, all its threads) and the state of
+// process pid from /proc; false when it cannot be read (the process has ended)
+bool process_cpu(pid_t pid, unsigned long long *ticks, char *state)
 {
-    const char *lib = fmt == Format::vdb ? "OpenVDB" : "VTK";
+    char name[64], stat[1024];
+    std::snprintf(name, sizeof name, "/proc/%ld/stat", (long)pid);
+    FILE *f = std::fopen(name, "r");
+    if (!f)
+        return false;
+    size_t n = std::fread(stat, 1, sizeof stat - 1, f);
+    std::fclose(f);
+    stat[n] = 0;
+    const char *p = std::strrchr(stat, ')');  // after the process's name
+    unsigned long long utime = 0, stime = 0;
+    if (!p || std::sscanf(p + 1, " %c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %llu %llu",
+                          state, &utime, &stime) != 3)
+        return false;
+    *ticks = utime + stime;
+    return true;
+}
+
+// How one reading child ended: it answered (status byte and text in `got`), died
+// (`status` from waitpid), or was ended by the parent: stuck (asleep without using any
+// CPU for STUCK_SECONDS) or past CHILD_WALL_SECONDS; or it could not be started
+// (failed: the error is in err)
+enum class ChildEnd { answered, died, stuck, too_long, failed };
+
+// A lock held by another thread at the fork (above) can still be inherited, since that
+// thread may wake between the check and the fork: the child then sleeps on it forever.
+// A reader that works uses CPU or waits on the disk (state D), so a child asleep (state
+// S) that has not used a clock tick in two seconds is stuck; it is ended and the file
+// read again by a new child, up to CHILD_TRIES times.  The parent ends the children
+// itself (and each child dies with the parent, PR_SET_PDEATHSIG): none outlives the call.
+constexpr int STUCK_SECONDS = 2;
+constexpr int CHILD_TRIES = 3;
+
+ChildEnd read_in_child(Format fmt, const char *path, std::string &got, int &status,
+                       ivoct_error_t *err)
+{
     int fd[2];
     if (pipe(fd)) {
         ivoct_error_set(err, "cannot read %s: %s", path, std::strerror(errno));
-        return -1;
+        return ChildEnd::failed;
     }
-    std::fflush(out);
     wait_for_other_threads_asleep();
+    pid_t parent = getpid();
     pid_t pid = fork();
     if (pid < 0) {
         ivoct_error_set(err, "cannot read %s: %s", path, std::strerror(errno));
         close(fd[0]);
         close(fd[1]);
-        return -1;
+        return ChildEnd::failed;
     }
     if (pid == 0) {
         close(fd[0]);
+        prctl(PR_SET_PDEATHSIG, SIGKILL);
+        if (getppid() != parent)  // the parent ended before the line above
+            _exit(2);
         if (__sanitizer_set_death_callback)
             __sanitizer_set_death_callback(nullptr);
         for (int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL})
@@ -267,14 +307,12 @@ int info_in_child(Format fmt, const char *path, FILE *out, ivoct_error_t *err)
         // child does not have: there they take their action (a Ctrl-C ends both)
         sigset_t stop;
         sigemptyset(&stop);
-        for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGALRM})
+        for (int sig : {SIGINT, SIGTERM, SIGHUP})
             sigaddset(&stop, sig);
-        std::signal(SIGALRM, SIG_DFL);
         sigprocmask(SIG_UNBLOCK, &stop, nullptr);
-        alarm(CHILD_WALL_SECONDS);
         limit_child_memory(path);
-        // and time: a reader caught in a loop by a crafted file is ended by SIGXCPU, one
-        // that waits forever by SIGALRM; real exports read in seconds
+        // and time: a reader caught in a loop by a crafted file is ended by SIGXCPU;
+        // real exports read in seconds
         struct rlimit cpu = {CHILD_CPU_SECONDS, CHILD_CPU_SECONDS + 1};
         setrlimit(RLIMIT_CPU, &cpu);
         // what a dying library prints (glibc's "free(): invalid pointer", a sanitizer's
@@ -308,25 +346,80 @@ int info_in_child(Format fmt, const char *path, FILE *out, ivoct_error_t *err)
         _exit(0);  // not exit: the parent's stdio buffers and atexit handlers are its own
     }
     close(fd[1]);
-    std::string got;
+    got.clear();
+    ChildEnd end = ChildEnd::answered;
+    struct timespec t0, idle_since;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    idle_since = t0;
+    unsigned long long last_ticks = 0;
+    auto seconds = [](const struct timespec &a, const struct timespec &b) {
+        return (double)(b.tv_sec - a.tv_sec) + 1e-9 * (double)(b.tv_nsec - a.tv_nsec);
+    };
     char buf[4096];
     for (;;) {
-        ssize_t r = read(fd[0], buf, sizeof buf);
-        if (r > 0)
-            got.append(buf, (size_t)r);
-        else if (r == 0 || errno != EINTR)
+        struct pollfd p = {fd[0], POLLIN, 0};
+        int ready = poll(&p, 1, 250);
+        if (ready < 0 && errno != EINTR)
             break;
+        if (ready > 0) {
+            ssize_t r = read(fd[0], buf, sizeof buf);
+            if (r > 0) {
+                got.append(buf, (size_t)r);
+                continue;
+            }
+            if (r == 0 || errno != EINTR)
+                break;  // the child's end is closed: it has answered or died
+        }
+        struct timespec now;
+        clock_gettime(CLOCK_MONOTONIC, &now);
+        unsigned long long ticks = 0;
+        char state = '?';
+        if (!process_cpu(pid, &ticks, &state))
+            continue;  // ended: the pipe says so next
+        if (ticks != last_ticks || state != 'S') {
+            last_ticks = ticks;
+            idle_since = now;
+        }
+        if (seconds(idle_since, now) >= STUCK_SECONDS || seconds(t0, now) >= CHILD_WALL_SECONDS) {
+            end = seconds(t0, now) >= CHILD_WALL_SECONDS ? ChildEnd::too_long : ChildEnd::stuck;
+            kill(pid, SIGKILL);
+            break;
+        }
     }
     close(fd[0]);
-    int status = 0;
+    status = 0;
     while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
     }
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || got.empty()) {
-        if (WIFSIGNALED(status) && (WTERMSIG(status) == SIGALRM || WTERMSIG(status) == SIGXCPU))
-            ivoct_error_set(err, "cannot read %s: %s's reader did not finish in %u s%s", path, lib,
-                            WTERMSIG(status) == SIGALRM ? CHILD_WALL_SECONDS
-                                                        : (unsigned)CHILD_CPU_SECONDS,
-                            WTERMSIG(status) == SIGALRM ? "" : " of CPU");
+    if (end != ChildEnd::answered)
+        return end;
+    return WIFEXITED(status) && WEXITSTATUS(status) == 0 && !got.empty() ? ChildEnd::answered
+                                                                         : ChildEnd::died;
+}
+
+int info_in_child(Format fmt, const char *path, FILE *out, ivoct_error_t *err)
+{
+    const char *lib = fmt == Format::vdb ? "OpenVDB" : "VTK";
+    std::fflush(out);
+    std::string got;
+    int status = 0;
+    ChildEnd end = ChildEnd::stuck;
+    for (int tries = 0; end == ChildEnd::stuck && tries < CHILD_TRIES; tries++)
+        end = read_in_child(fmt, path, got, status, err);
+    switch (end) {
+    case ChildEnd::answered: break;
+    case ChildEnd::failed: return -1;
+    case ChildEnd::stuck:
+        ivoct_error_set(err, "cannot read %s: %s's reader stopped (asleep without progress "
+                             "%d times)", path, lib, CHILD_TRIES);
+        return -1;
+    case ChildEnd::too_long:
+        ivoct_error_set(err, "cannot read %s: %s's reader did not finish in %u s", path, lib,
+                        CHILD_WALL_SECONDS);
+        return -1;
+    case ChildEnd::died:
+        if (WIFSIGNALED(status) && WTERMSIG(status) == SIGXCPU)
+            ivoct_error_set(err, "cannot read %s: %s's reader did not finish in %u s of CPU",
+                            path, lib, (unsigned)CHILD_CPU_SECONDS);
         else if (WIFSIGNALED(status))
             ivoct_error_set(err, "cannot read %s: corrupt file (%s's reader died of signal %d)",
                             path, lib, WTERMSIG(status));

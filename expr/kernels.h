@@ -391,6 +391,26 @@ static void g_lanes_scale(double *o, const double *sl, const double *sh, const d
     }
 }
 
+/* o = p q + r s lane by lane (fm_mul_add: the product rule a' b + a b') in three
+ * loops: in one, gcc gives up on vectorising */
+static void lanes_mul_add(double *restrict ol, double *restrict oh, const double *pl,
+                          const double *ph, const double *ql, const double *qh,
+                          const double *rl, const double *rh, const double *sl,
+                          const double *sh, size_t nl)
+{
+    double al[B], ah[B], bl[B], bh[B];
+    for (size_t k = 0; k < nl; k++) {
+        iv_t v = iv_mul(IV(pl, ph, k), IV(ql, qh, k));
+        al[k] = v.lo, ah[k] = v.hi;
+    }
+    for (size_t k = 0; k < nl; k++) {
+        iv_t v = iv_mul(IV(rl, rh, k), IV(sl, sh, k));
+        bl[k] = v.lo, bh[k] = v.hi;
+    }
+    for (size_t k = 0; k < nl; k++)
+        ol[k] = iv_add_down(al[k], bl[k]), oh[k] = iv_add_up(ah[k], bh[k]);
+}
+
 /* the product rule (g_mul); a partial of one operand alone is a single
  * product */
 static void g_lanes_mul(double *o, const double *a, const double *b, size_t nl, unsigned ma,
@@ -414,18 +434,7 @@ static void g_lanes_mul(double *o, const double *a, const double *b, size_t nl, 
             }
             continue;
         }
-        /* fm_mul_add in three loops: in one, gcc gives up on vectorising */
-        double pl[B], ph[B], ql[B], qh[B];
-        for (size_t k = 0; k < nl; k++) {
-            iv_t r = iv_mul(IV(adl, adh, k), IV(bvl, bvh, k));
-            pl[k] = r.lo, ph[k] = r.hi;
-        }
-        for (size_t k = 0; k < nl; k++) {
-            iv_t r = iv_mul(IV(avl, avh, k), IV(bdl, bdh, k));
-            ql[k] = r.lo, qh[k] = r.hi;
-        }
-        for (size_t k = 0; k < nl; k++)
-            ol[k] = iv_add_down(pl[k], ql[k]), oh[k] = iv_add_up(ph[k], qh[k]);
+        lanes_mul_add(ol, oh, adl, adh, bvl, bvh, avl, avh, bdl, bdh, nl);
     }
     double *restrict ol = GLO(o, 0), *restrict oh = GHI(o, 0);
     for (size_t k = 0; k < nl; k++) {
@@ -543,16 +552,12 @@ static void K(grad)(const tape_t *t, const uint8_t *deps, double *G, size_t nl, 
 #define RA(p, c) ((p) + (size_t)(c) * B)
 
 /* o = u(a) along the ray for a unary op u with derivative du (fm_unary's
- * rules): the value, du * a' and |du| * a's magnitude */
-static void r_lanes_chain(double *o, const double *a, size_t nl, const double *ul,
-                          const double *uh, const double *dul, const double *duh)
+ * rules), o's value u(a) being set: du * a' and |du| * a's magnitude */
+static void r_lanes_chain(double *o, const double *a, size_t nl, const double *dul,
+                          const double *duh)
 {
     double *restrict dl = RA(o, R_DLO), *restrict dh = RA(o, R_DHI), *restrict m = RA(o, R_MAG);
     const double *adl = RA(a, R_DLO), *adh = RA(a, R_DHI), *am = RA(a, R_MAG);
-    if (ul != RA(o, R_VLO)) {
-        memcpy(RA(o, R_VLO), ul, nl * sizeof *ul);
-        memcpy(RA(o, R_VHI), uh, nl * sizeof *uh);
-    }
     for (size_t k = 0; k < nl; k++) {
         iv_t d = iv_mul(IV(dul, duh, k), IV(adl, adh, k));
         dl[k] = d.lo, dh[k] = d.hi;
@@ -588,7 +593,7 @@ static void r_lanes_powi(double *o, const double *a, size_t nl, unsigned n)
             sl[k] = r.lo, sh[k] = r.hi;
         }
     }
-    r_lanes_chain(o, a, nl, vl, vh, sl, sh);
+    r_lanes_chain(o, a, nl, sl, sh);
 }
 
 static void K(ray)(const tape_t *t, double *R, size_t nl, kernel_in_t in, kernel_in_t dir_rho)
@@ -645,21 +650,11 @@ static void K(ray)(const tape_t *t, double *R, size_t nl, kernel_in_t in, kernel
             break;
         }
         case TAPE_MUL: {
-            /* fm_mul_add(a', b, a, b') in loops that vectorise */
-            double pl[B], ph[B];
             for (size_t k = 0; k < nl; k++) {
                 iv_t v = iv_mul(IV(avl, avh, k), IV(bvl, bvh, k));
                 vl[k] = v.lo, vh[k] = v.hi;
             }
-            for (size_t k = 0; k < nl; k++) {
-                iv_t p = iv_mul(IV(adl, adh, k), IV(bvl, bvh, k));
-                pl[k] = p.lo, ph[k] = p.hi;
-            }
-            for (size_t k = 0; k < nl; k++) {
-                iv_t q = iv_mul(IV(avl, avh, k), IV(bdl, bdh, k));
-                iv_t d = iv_add(iv_make(pl[k], ph[k]), q);
-                dl[k] = d.lo, dh[k] = d.hi;
-            }
+            lanes_mul_add(dl, dh, adl, adh, bvl, bvh, avl, avh, bdl, bdh, nl);
             for (size_t k = 0; k < nl; k++)
                 m[k] = iv_add_up(mag_mul(am[k], mag_of(IV(bvl, bvh, k))),
                                  mag_mul(mag_of(IV(avl, avh, k)), bm[k]));

@@ -221,15 +221,17 @@ echo "timed signals: $INTERRUPTED interrupted runs in all, $FINISHED timed runs 
 [ "$FINISHED" -le $((N / 2)) ] && ok || fail "$FINISHED of $N timed signals came after the end"
 
 # ---- a second signal stops at once -------------------------------------------------------------
-# IVOCT_TEST_PAUSE_AT=interrupted holds the first signal's handling before it removes
-# anything (as a slow cleanup would): the second SIGINT must end the process at once.
+# The first SIGINT comes at the pause before the .ivo (the CSV is written under its
+# temporary name by then); IVOCT_TEST_PAUSE_AT's "interrupted" then holds that signal's
+# handling before it removes anything (as a slow cleanup would): the second SIGINT must
+# end the process at once.
 # shellcheck disable=SC2046
-start interrupted "" build "$SCENE" --depth "$DEPTH" --quiet $(outputs "$O")
-for ((i = 0; i < 3000; i++)); do
-    [ -n "$(find "$TMP/o" -name 'out.csv.tmp.*')" ] && break
-    sleep 0.1
-done
-kill -INT "$PID"
+start save,interrupted "" build "$SCENE" --depth "$DEPTH" --quiet $(outputs "$O")
+if wait_for "ivoct: test pause at save"; then
+    [ -n "$(find "$TMP/o" -name 'out.csv.tmp.*')" ] && ok ||
+        fail "second SIGINT: no temporary CSV at the pause before the .ivo"
+    kill -INT "$PID"
+fi
 if wait_for "ivoct: test pause at interrupted"; then
     ok
     t0=$(now_ms)

@@ -78,14 +78,6 @@ typedef struct chain_scratch {
     double (*centre)[3];
 } chain_scratch_t;
 
-/* The last leaf diagonal computed (chain.c, leaf_diagonal_squared). */
-typedef struct diagonal_memo {
-    int valid;
-    unsigned zeros;
-    double width[3];
-    double d2;
-} diagonal_memo_t;
-
 /* One thread's evaluators and scratch. */
 typedef struct worker {
     build_t *b;
@@ -96,7 +88,6 @@ typedef struct worker {
     chain_scratch_t chain;
     struct wave *wave;         /* the levels of the subtree being built (build.c) */
     double max_diagonal2;      /* the largest squared diagonal of a leaf without a slab */
-    diagonal_memo_t diagonal_memo;
     oct_stats_t st;
 } worker_t;
 
@@ -119,8 +110,24 @@ typedef struct frontier {
  * root rounded up, which depends on that bound alone and grows with it.  So
  * the largest diagonal of many boxes is the root of their largest square,
  * one square root in all (the builder's max_error_bound). */
-double cell_diagonal_squared(const iv_box_t *b);
 double cell_diagonal_of_squared(double d2);
+
+/* The squared diagonal rounded up: the upper end of the interval sum of the
+ * squared widths iv_sqr(iv_sub(hi, lo)) (iv_add of the three), bit for bit, with
+ * only the upper ends computed (inline: it runs once per leaf without a slab). */
+static inline double cell_diagonal_squared(const iv_box_t *b)
+{
+    const iv_t *s = &b->x;
+    double sq[3];
+    for (int a = 0; a < 3; a++) {
+        /* iv_sub's bounds; the lower one only matters when it is the larger in
+         * magnitude (iv_sqr), which a box (lo <= hi) never makes it */
+        double lo = iv_add_down(s[a].hi, -s[a].lo), hi = iv_add_up(s[a].hi, -s[a].lo);
+        double m = fabs(lo) > fabs(hi) ? fabs(lo) : fabs(hi);
+        sq[a] = m == 0 ? 0.0 : iv_up(m * m);
+    }
+    return iv_add_up(iv_add_up(sq[0], sq[1]), sq[2]);
+}
 
 /* ---- pool.c ---- */
 

@@ -1,4 +1,8 @@
 /* ivoct — cell addressing: bounds, Morton codes. */
+#include <float.h>
+#include <stdint.h>
+#include <string.h>
+
 #include "build_internal.h"
 
 /* 2^-d, exact: scaling by it is exact, so i * 2^-d is the fraction itself */
@@ -53,22 +57,35 @@ void oct_unmorton(uint64_t code, int depth, uint32_t *ix, uint32_t *iy, uint32_t
     *ix = x, *iy = y, *iz = z;
 }
 
-/* the float nearest x, moved outward past x when rounding went inward */
-static float float_down(double x)
+/* The bits of the float next to f (bits b) toward -inf (up = 0) or +inf
+ * (up = 1): nextafterf, for the f that float_outward steps from (never NaN,
+ * never the infinity it steps toward), in integer operations. */
+static uint32_t float_step(uint32_t b, uint32_t up)
 {
-    float f = (float)x;
-    return (double)f > x ? nextafterf(f, -INFINITY) : f;
+    uint32_t sign = b >> 31, zero = -(uint32_t)((b & 0x7fffffffu) == 0);
+    uint32_t stepped = up ? b + 1 - 2 * sign : b - 1 + 2 * sign;
+    uint32_t least = up ? 0x00000001u : 0x80000001u; /* the least subnormal */
+    return (least & zero) | (stepped & ~zero);
 }
 
-static float float_up(double x)
+/* The float nearest x, moved outward past x (down for up = 0, up for up = 1)
+ * when the conversion rounded inward.  Without branches: that is a coin toss
+ * from leaf to leaf, and the mispredicted branches (or nextafterf's calls) took
+ * most of the time of making a leaf. */
+static float float_outward(double x, uint32_t up)
 {
     float f = (float)x;
-    return (double)f < x ? nextafterf(f, INFINITY) : f;
+    uint32_t b;
+    memcpy(&b, &f, sizeof b);
+    uint32_t inward = -(uint32_t)(up ? (double)f < x : (double)f > x);
+    b = (float_step(b, up) & inward) | (b & ~inward);
+    memcpy(&f, &b, sizeof f);
+    return f;
 }
 
 oct_leaf_t oct_leaf_make(uint64_t code, int depth, double f_lo, double f_hi)
 {
-    oct_leaf_t l = {(uint64_t)1 << (3 * depth) | code, float_down(f_lo), float_up(f_hi)};
+    oct_leaf_t l = {(uint64_t)1 << (3 * depth) | code, float_outward(f_lo, 0), float_outward(f_hi, 1)};
     return l;
 }
 
@@ -92,14 +109,6 @@ double oct_leaf_error_bound(const oct_tree_t *tree, uint32_t i)
         return tree->slabs[i].thickness;
     iv_box_t b = oct_leaf_box(tree, &tree->leaves[i]);
     return oct_box_diagonal(&b);
-}
-
-double cell_diagonal_squared(const iv_box_t *b)
-{
-    iv_t d2 = iv_add(iv_add(iv_sqr(iv_sub(iv_point(b->x.hi), iv_point(b->x.lo))),
-                            iv_sqr(iv_sub(iv_point(b->y.hi), iv_point(b->y.lo)))),
-                     iv_sqr(iv_sub(iv_point(b->z.hi), iv_point(b->z.lo))));
-    return d2.hi;
 }
 
 double cell_diagonal_of_squared(double d2) { return iv_sqrt(iv_make(d2, d2)).hi; }

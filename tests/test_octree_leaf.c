@@ -1,0 +1,119 @@
+/* oct_leaf_make (octree/cell.c): the leaf's key says its depth and code, and its
+ * float enclosure is the double one rounded outward, tightly.
+ *
+ * For every double x tried as f_lo (f_hi), the leaf's f_lo is the largest float
+ * <= x (f_hi: the smallest float >= x), checked with the C library's nextafterf
+ * as the reference: f_lo <= x < nextafterf(f_lo, +inf) where f_lo is finite.
+ * The doubles: zeros of both signs, the float and double subnormal ranges, the
+ * float range's ends and beyond (overflow to an infinite bound only outward),
+ * the infinities, NaN (stays NaN), and random bit patterns of every exponent;
+ * the depth and code of keys at depths 0..21. */
+#define _POSIX_C_SOURCE 200809L
+#include <float.h>
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "../octree/octree.h"
+#include "support/testutil.h"
+
+/* f is the largest float <= x (down) or the smallest float >= x (up) */
+static void assert_outward(double x, float f, int up)
+{
+    if (isnan(x)) {
+        assert_true(isnan(f));
+        return;
+    }
+    if (up) {
+        assert_true((double)f >= x);
+        if (f != -INFINITY) /* the next float below must be below x */
+            assert_true((double)nextafterf(f, -INFINITY) < x);
+    } else {
+        assert_true((double)f <= x);
+        if (f != INFINITY)
+            assert_true((double)nextafterf(f, INFINITY) > x);
+    }
+}
+
+static void check(double x)
+{
+    oct_leaf_t l = oct_leaf_make(5, 3, x, x);
+    assert_outward(x, l.f_lo, 0);
+    assert_outward(x, l.f_hi, 1);
+    /* the sign of a zero bound: -0 <= 0 and 0 >= -0 are both right; the point
+     * is that an exact float is kept as it is */
+    if ((double)(float)x == x && !isnan(x)) {
+        assert_true(l.f_lo == (float)x);
+        assert_true(l.f_hi == (float)x);
+    }
+}
+
+static void test_edges(void **state)
+{
+    (void)state;
+    const double xs[] = {
+        0.0, -0.0, 1.0, -1.0, 0.1, -0.1, 1.0 / 3, -1.0 / 3,
+        FLT_TRUE_MIN, -FLT_TRUE_MIN, (double)FLT_TRUE_MIN / 2, -(double)FLT_TRUE_MIN / 2,
+        FLT_TRUE_MIN * 1.5, -FLT_TRUE_MIN * 1.5, FLT_MIN, -FLT_MIN, FLT_MIN * (1 - 0x1p-30),
+        DBL_TRUE_MIN, -DBL_TRUE_MIN, DBL_MIN, -DBL_MIN,
+        FLT_MAX, -FLT_MAX, (double)FLT_MAX * (1 + 0x1p-30), -(double)FLT_MAX * (1 + 0x1p-30),
+        (double)FLT_MAX * 2, -(double)FLT_MAX * 2, DBL_MAX, -DBL_MAX,
+        INFINITY, -INFINITY, NAN,
+    };
+    for (size_t i = 0; i < sizeof xs / sizeof xs[0]; i++)
+        check(xs[i]);
+    /* beyond the float range: the outer bound is infinite, the inner one FLT_MAX */
+    oct_leaf_t l = oct_leaf_make(0, 0, (double)FLT_MAX * 2, (double)FLT_MAX * 2);
+    assert_true(l.f_lo == FLT_MAX && l.f_hi == INFINITY);
+    l = oct_leaf_make(0, 0, -(double)FLT_MAX * 2, -(double)FLT_MAX * 2);
+    assert_true(l.f_lo == -INFINITY && l.f_hi == -FLT_MAX);
+    /* between 0 and the least subnormal: outward to it, inward to a zero */
+    l = oct_leaf_make(0, 0, (double)FLT_TRUE_MIN / 2, (double)FLT_TRUE_MIN / 2);
+    assert_true(l.f_lo == 0 && l.f_hi == FLT_TRUE_MIN);
+    l = oct_leaf_make(0, 0, -(double)FLT_TRUE_MIN / 2, -(double)FLT_TRUE_MIN / 2);
+    assert_true(l.f_lo == -FLT_TRUE_MIN && l.f_hi == 0);
+}
+
+static void test_random(void **state)
+{
+    (void)state;
+    uint64_t rng = tu_seed(0x1eafULL);
+    for (int i = 0; i < 2000000; i++) {
+        uint64_t bits = tu_next(&rng);
+        if (i & 1) { /* exponents near the float range, where rounding happens */
+            uint64_t e = 1023 - 160 + (tu_next(&rng) % 300);
+            bits = (bits & 0x800fffffffffffffULL) | e << 52;
+        }
+        double x;
+        memcpy(&x, &bits, sizeof x);
+        check(x);
+    }
+}
+
+static void test_key(void **state)
+{
+    (void)state;
+    uint64_t rng = tu_seed(0x6b6579ULL);
+    for (int depth = 0; depth <= OCT_MAX_DEPTH; depth++)
+        for (int i = 0; i < 100; i++) {
+            uint64_t code = depth ? tu_next(&rng) >> (64 - 3 * depth) : 0;
+            oct_leaf_t l = oct_leaf_make(code, depth, -1, 1);
+            assert_int_equal(oct_leaf_depth(&l), depth);
+            assert_true(oct_leaf_code(&l) == code);
+        }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_edges),
+        cmocka_unit_test(test_random),
+        cmocka_unit_test(test_key),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -16,7 +16,9 @@
 #      -> M cells/s per core (cells_visited / time_s of --stats);
 #   3. the default path with 2 threads against 1 (depth 9, interval);
 #   4. the uniform octree (interval, 1 thread) against dense point sampling
-#      (ivoct_dense, 1 thread) at the deepest depth.
+#      (ivoct_dense, 1 thread) at the deepest depth;
+#   and, on a CPU with AVX-512, ivoct_round_avx512: the interval product with
+#   the outward widening against AVX-512's per-instruction rounding.
 # Output: bench/results/simd-STAMP.md (also printed).  The machine has 2
 # cores and is shared: check `uptime` (printed at the start and the end).
 set -euo pipefail
@@ -35,7 +37,7 @@ while [ $# -gt 0 ]; do
     --depths) depths=$2; shift ;;
     --reps) reps=$2; shift ;;
     --surfaces) surfaces=$2; shift ;;
-    -h | --help) sed -n '2,22p' "$0"; exit 0 ;;
+    -h | --help) sed -n '2,23p' "$0"; exit 0 ;;
     *) echo "bench/simd.sh: unknown option $1" >&2; exit 2 ;;
     esac
     shift
@@ -79,6 +81,14 @@ for s in $surfaces; do scene_files+=("$root/scenes/$s.ini"); done
 "$build_dir/bench/ivoct_bench_eval" --seconds 0.6 "${scene_files[@]}"
 echo '```'
 echo
+if [ -x "$build_dir/bench/ivoct_round_avx512" ]; then
+    echo "## The interval product: outward widening against AVX-512's per-instruction rounding"
+    echo
+    echo '```'
+    "$build_dir/bench/ivoct_round_avx512" 1
+    echo '```'
+    echo
+fi
 echo "## Build, one thread: M cells/s per core (best of $reps)"
 echo
 header="| surface | depth | tests |"

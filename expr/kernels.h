@@ -63,32 +63,39 @@ static inline double k_dn0(double x) /* iv_down of a value known to be >= 0 */
     return y < 0.0 ? 0.0 : y;
 }
 
-/* m^e (m >= 0, e >= 1) rounded down and up for every lane: the binary
- * exponentiation of interval.c (pow_dn, pow_up) with the lanes innermost,
- * the same products in the same order, so the same bounds.  m is only read
- * (its first nl lanes); it is not const because gcc 12 takes a const pointer
- * to a local array written for nl lanes as a read of the whole array
+/* m^e (m >= 0, e >= 1) rounded down (up = 0) or up (up = 1) for every lane:
+ * the binary exponentiation of interval.c (pow_dn, pow_up) with the lanes
+ * innermost, the same products in the same order, so the same bounds.  m is
+ * only read (its first nl lanes); it is not const because gcc 12 takes a const
+ * pointer to a local array written for nl lanes as a read of the whole array
  * (-Wmaybe-uninitialized), and zeroing the array for it cost every pass. */
-static void k_pow_bounds(double *restrict m, size_t nl, unsigned e, double *restrict dn,
-                         double *restrict up)
+static void k_pow_bound(double *restrict m, size_t nl, unsigned e, int up,
+                        double *restrict out)
 {
-    double bd[B], bu[B];
+    double base[B];
     for (size_t k = 0; k < nl; k++)
-        dn[k] = up[k] = 1.0, bd[k] = bu[k] = m[k];
+        out[k] = 1.0, base[k] = m[k];
     for (;;) {
-        if (e & 1u)
-            for (size_t k = 0; k < nl; k++)
-                dn[k] = k_dn0(dn[k] * bd[k]), up[k] = iv_up(up[k] * bu[k]);
+        if (e & 1u) {
+            if (up)
+                for (size_t k = 0; k < nl; k++)
+                    out[k] = iv_up(out[k] * base[k]);
+            else
+                for (size_t k = 0; k < nl; k++)
+                    out[k] = k_dn0(out[k] * base[k]);
+        }
         e >>= 1;
         if (e == 0)
             break;
-        for (size_t k = 0; k < nl; k++)
-            bd[k] = k_dn0(bd[k] * bd[k]), bu[k] = iv_up(bu[k] * bu[k]);
+        if (up)
+            for (size_t k = 0; k < nl; k++)
+                base[k] = iv_up(base[k] * base[k]);
+        else
+            for (size_t k = 0; k < nl; k++)
+                base[k] = k_dn0(base[k] * base[k]);
     }
-    for (size_t k = 0; k < nl; k++) {
-        dn[k] = m[k] == 0.0 ? 0.0 : dn[k];
-        up[k] = m[k] == 0.0 ? 0.0 : up[k];
-    }
+    for (size_t k = 0; k < nl; k++)
+        out[k] = m[k] == 0.0 ? 0.0 : out[k];
 }
 
 /* iv_powi(a, e) for e >= 3, every lane: odd powers are increasing (the
@@ -98,21 +105,30 @@ static void k_powi_pos(const double *restrict al, const double *restrict ah, siz
                        unsigned e, double *restrict ol, double *restrict oh)
 {
     const int odd = e & 1u;
-    double ml[B], mh[B], dl[B], ul[B], dh[B], uh[B];
+    double ml[B], mh[B], dl[B], uh[B];
     for (size_t k = 0; k < nl; k++) {
         int pos = al[k] >= 0.0, neg = ah[k] <= 0.0;
         double top = -al[k] > ah[k] ? -al[k] : ah[k];
         ml[k] = odd ? fabs(al[k]) : pos ? al[k] : neg ? -ah[k] : 0.0;
         mh[k] = odd ? fabs(ah[k]) : pos ? ah[k] : neg ? -al[k] : top;
     }
-    k_pow_bounds(ml, nl, e, dl, ul);
-    k_pow_bounds(mh, nl, e, dh, uh);
+    /* an even power's bounds are ml^e down and mh^e up; an odd one's take the
+     * other direction too where a bound is negative */
+    k_pow_bound(ml, nl, e, 0, dl);
+    k_pow_bound(mh, nl, e, 1, uh);
+    if (odd) {
+        double ul[B], dh[B];
+        k_pow_bound(ml, nl, e, 1, ul);
+        k_pow_bound(mh, nl, e, 0, dh);
+        for (size_t k = 0; k < nl; k++) {
+            dl[k] = al[k] < 0.0 ? -ul[k] : dl[k];
+            uh[k] = ah[k] < 0.0 ? -dh[k] : uh[k];
+        }
+    }
     for (size_t k = 0; k < nl; k++) {
         int empty = (al[k] != al[k]) | (ah[k] != ah[k]);
-        double lo = odd && al[k] < 0.0 ? -ul[k] : dl[k];
-        double hi = odd && ah[k] < 0.0 ? -dh[k] : uh[k];
-        ol[k] = empty ? NAN : lo;
-        oh[k] = empty ? NAN : hi;
+        ol[k] = empty ? NAN : dl[k];
+        oh[k] = empty ? NAN : uh[k];
     }
 }
 

@@ -5,20 +5,42 @@
  * rounded up.  Comparisons are written so that NaN makes them false. */
 #include "lipschitz.h"
 
-double lip_magnitude(iv_t a) { return fmax(fabs(a.lo), fabs(a.hi)); }
+/* fmax (the other operand when one is NaN) without libm's call */
+static inline double max_num(double a, double b) { return a > b || b != b ? a : b; }
 
-/* sqrt(sum of squares) of three magnitudes, enclosed */
-static iv_t norm3(double a, double b, double c)
+static inline double magnitude(iv_t a) { return max_num(fabs(a.lo), fabs(a.hi)); }
+
+double lip_magnitude(iv_t a) { return magnitude(a); }
+
+/* The upper ends of iv_sqrt(0 + a^2 + b^2 + c^2) (iv_add, iv_sqr of points) and
+ * of iv_mul(iv_point(a), iv_point(b)) for a, b, c >= 0 (or NaN), bit for bit,
+ * with only the upper ends computed: the cell test runs on
+ * every open cell of a build with the Lipschitz test, and the lower ends (and
+ * iv_sqrt's call) were most of its time.  For magnitudes the intervals are
+ * points or hold only non-negative numbers, which leaves of each operation
+ * the branch written out here (interval.h, interval.c); the tests compare
+ * these with the interval operations (tests/test_lipschitz_mpfi.c). */
+static inline double sqr_up(double m) { return m == 0 ? 0.0 : iv_up(m * m); }
+
+static inline double norm3_up(double a, double b, double c)
 {
-    iv_t s = iv_add(iv_add(iv_add(iv_point(0), iv_sqr(iv_point(a))), iv_sqr(iv_point(b))),
-                    iv_sqr(iv_point(c)));
-    return iv_sqrt(s);
+    double s = iv_add_up(iv_add_up(sqr_up(a), sqr_up(b)), sqr_up(c));
+    return s != s ? s : s > 0 ? iv_up(sqrt(s)) : 0.0;
 }
 
-double lip_gradient_bound(iv_grad_t G)
+static inline double mul_up(double a, double b)
 {
-    return norm3(lip_magnitude(G.dx), lip_magnitude(G.dy), lip_magnitude(G.dz)).hi;
+    if (a != a || b != b)
+        return NAN;
+    return a == 0 || b == 0 ? 0.0 : iv_up(a * b);
 }
+
+static inline double gradient_bound(iv_grad_t G)
+{
+    return norm3_up(magnitude(G.dx), magnitude(G.dy), magnitude(G.dz));
+}
+
+double lip_gradient_bound(iv_grad_t G) { return gradient_bound(G); }
 
 int lip_cell_excludes(const iv_box_t *box, const double c[3], iv_t fc, iv_grad_t G)
 {
@@ -29,9 +51,8 @@ int lip_cell_excludes(const iv_box_t *box, const double c[3], iv_t fc, iv_grad_t
     const iv_t *ax[3] = {&box->x, &box->y, &box->z};
     double leg[3];
     for (int k = 0; k < 3; k++)
-        leg[k] = iv_up(fmax(c[k] - ax[k]->lo, ax[k]->hi - c[k]));
-    double r = norm3(leg[0], leg[1], leg[2]).hi;
-    double bound = iv_mul(iv_point(lip_gradient_bound(G)), iv_point(r)).hi;
+        leg[k] = iv_up(max_num(c[k] - ax[k]->lo, ax[k]->hi - c[k]));
+    double bound = mul_up(gradient_bound(G), norm3_up(leg[0], leg[1], leg[2]));
     if (!(mig > bound))
         return 0;
     return fc.lo > 0 ? 1 : -1;

@@ -15,7 +15,9 @@
  *      o + t·d, t = a, b, m and 64 more (and at the rounded points p~(t)),
  *      has the strict sign of g(m);
  *   4. lip_normals_within_60_degrees: g·a > |g| |a| / 2 for the gradient g at
- *      every sampled point.
+ *      every sampled point;
+ *   5. the bounds are the upper ends of their interval formulas, bit for bit
+ *      (lipschitz.c computes only the upper ends).
  * The boxes of 2-4 are small and many sit near the surface, so that the tests
  * do decide (the number of decisions is asserted > 0, or the check would be
  * vacuous); a quarter of the boxes and segments are placed at the edge of
@@ -873,6 +875,75 @@ static iv_grad_t grad_of(iv_t dx, iv_t dy, iv_t dz)
     return G;
 }
 
+/* 5. The bounds are the upper ends of their interval formulas (lipschitz.c
+ * computes only those), bit for bit: L = iv_sqrt(0 + mag(dx)^2 + mag(dy)^2 +
+ * mag(dz)^2).hi, and the cell test decides exactly when mig(fc) > iv_mul(L, r).hi
+ * with r the same norm of the legs, over random magnitudes of every size
+ * (zeros, subnormals, huge, infinite) and empty partials. */
+static double norm3_formula(double a, double b, double c)
+{
+    iv_t s = iv_add(iv_add(iv_add(iv_point(0), iv_sqr(iv_point(a))), iv_sqr(iv_point(b))),
+                    iv_sqr(iv_point(c)));
+    return iv_sqrt(s).hi;
+}
+
+static double random_magnitude(uint64_t *rng)
+{
+    switch (tu_next(rng) % 8) {
+    case 0: return 0.0;
+    case 1: return INFINITY;
+    case 2: return tu_uniform(rng) * 0x1p-1060; /* subnormal */
+    case 3: return tu_uniform(rng) * 0x1p1000;
+    default: return ldexp(tu_uniform(rng), (int)(tu_next(rng) % 200) - 100);
+    }
+}
+
+static int same_bits(double a, double b)
+{
+    return (a != a && b != b) || memcmp(&a, &b, sizeof a) == 0;
+}
+
+static void test_upper_ends(void **state)
+{
+    (void)state;
+    uint64_t rng = tu_seed(0x7570706572ULL);
+    for (int i = 0; i < 200000; i++) {
+        double m[3];
+        iv_grad_t G;
+        iv_t *p[3] = {&G.dx, &G.dy, &G.dz};
+        G.v = iv_make(-1, 1);
+        for (int k = 0; k < 3; k++) {
+            m[k] = random_magnitude(&rng);
+            *p[k] = tu_next(&rng) % 2 ? iv_make(-m[k], 0.5 * m[k]) : iv_make(-0.5 * m[k], m[k]);
+        }
+        if (tu_next(&rng) % 50 == 0) {
+            int k = (int)(tu_next(&rng) % 3);
+            *p[k] = iv_empty();
+            m[k] = NAN;
+        }
+        double L = norm3_formula(m[0], m[1], m[2]);
+        assert_true(same_bits(lip_gradient_bound(G), L));
+
+        /* a cell around c with legs h, and fc with a margin either side of L r */
+        double c[3] = {0.25, -0.5, 1.0}, h[3];
+        iv_box_t box;
+        iv_t *ax[3] = {&box.x, &box.y, &box.z};
+        for (int k = 0; k < 3; k++) {
+            h[k] = ldexp(1.0, -(int)(tu_next(&rng) % 30));
+            *ax[k] = iv_make(c[k] - h[k], c[k] + h[k]);
+        }
+        double leg[3];
+        for (int k = 0; k < 3; k++)
+            leg[k] = iv_up(fmax(c[k] - ax[k]->lo, ax[k]->hi - c[k]));
+        double bound = iv_mul(iv_point(L), iv_point(norm3_formula(leg[0], leg[1], leg[2]))).hi;
+        double f = isfinite(bound) ? bound * (1 + ldexp(tu_uniform(&rng) - 0.5, -40)) : 1.0;
+        iv_t fc = tu_next(&rng) % 2 ? iv_make(f, 2 * f + 1) : iv_make(-2 * f - 1, -f);
+        double mig = fc.lo > 0 ? fc.lo : -fc.hi;
+        int want = mig > bound ? (fc.lo > 0 ? 1 : -1) : 0;
+        assert_int_equal(lip_cell_excludes(&box, c, fc, G), want);
+    }
+}
+
 static void test_hand_cases(void **state)
 {
     (void)state;
@@ -962,6 +1033,7 @@ int main(void)
         cmocka_unit_test(test_cell_excludes),
         cmocka_unit_test(test_segment_excludes),
         cmocka_unit_test(test_normals_cone),
+        cmocka_unit_test(test_upper_ends),
     };
     /* IVOCT_TEST_FILTER=test_cell_excludes runs one test (a cmocka pattern) */
     const char *filter = getenv("IVOCT_TEST_FILTER");

@@ -78,6 +78,14 @@ typedef struct chain_scratch {
     double (*centre)[3];
 } chain_scratch_t;
 
+/* The last leaf diagonal computed (chain.c, leaf_diagonal_squared). */
+typedef struct diagonal_memo {
+    int valid;
+    unsigned zeros;
+    double width[3];
+    double d2;
+} diagonal_memo_t;
+
 /* One thread's evaluators and scratch. */
 typedef struct worker {
     build_t *b;
@@ -88,6 +96,7 @@ typedef struct worker {
     chain_scratch_t chain;
     struct wave *wave;         /* the levels of the subtree being built (build.c) */
     double max_diagonal2;      /* the largest squared diagonal of a leaf without a slab */
+    diagonal_memo_t diagonal_memo;
     oct_stats_t st;
 } worker_t;
 

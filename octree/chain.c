@@ -56,6 +56,29 @@ static void make_slab(const ilie_t *l, const iv_box_t *box, int early, oct_slab_
     out->d_lo = lo, out->d_hi = hi, out->thickness = thick;
 }
 
+/* cell_diagonal_squared of a leaf's box.  It depends on the box only through
+ * the rounded widths fl(hi - lo) and on which ends are 0 (where iv_sub is
+ * exact); where the cells' corners are exact doubles (a box of dyadic bounds)
+ * the leaves of a batch have equal widths and the last result is reused. */
+static double leaf_diagonal_squared(worker_t *w, const iv_box_t *b)
+{
+    const iv_t *s = &b->x;
+    double width[3];
+    unsigned zeros = 0;
+    for (int a = 0; a < 3; a++) {
+        width[a] = s[a].hi - s[a].lo;
+        zeros |= (unsigned)(s[a].lo == 0) << (2 * a) | (unsigned)(s[a].hi == 0) << (2 * a + 1);
+    }
+    diagonal_memo_t *m = &w->diagonal_memo;
+    if (m->valid && m->zeros == zeros && !memcmp(m->width, width, sizeof width))
+        return m->d2;
+    m->valid = 1;
+    m->zeros = zeros;
+    memcpy(m->width, width, sizeof width);
+    m->d2 = cell_diagonal_squared(b);
+    return m->d2;
+}
+
 /* The interval gradient over the open cells, into G[k]. */
 static void gradient_pass(worker_t *w, const tape_t *t, const iv_box_t *boxes,
                           const int *open, int nopen, iv_grad_t *G)
@@ -209,7 +232,7 @@ void chain_classify(worker_t *w, const tape_t *t, int single_use, const cell_t *
                 if (out[k].slab.thickness > st->max_error_bound)
                     st->max_error_bound = out[k].slab.thickness;
             } else {
-                double d2 = cell_diagonal_squared(&boxes[k]);
+                double d2 = leaf_diagonal_squared(w, &boxes[k]);
                 if (d2 > w->max_diagonal2)
                     w->max_diagonal2 = d2;
             }

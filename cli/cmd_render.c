@@ -28,6 +28,11 @@ static const char SYNOPSIS[] =
     "By default the scene's octree is built first (its [octree] depth, tests and\n"
     "refine, as ivoct build does) and each ray is searched only over the surface\n"
     "leaves it meets, front to back; the build time is reported apart.\n"
+    "\n"
+    "Under mpirun (docs/cluster.md) each rank loads or builds the octree; one\n"
+    "image (fewer frames than ranks) is split into 16x16 tiles dealt out to the\n"
+    "ranks and gathered on rank 0, else the frames are dealt out; the files are\n"
+    "those of one process.\n"
     "\n";
 
 /* Leaf tapes are used when they are at most this share of the scene's tape

@@ -437,6 +437,29 @@ static void json_u64s(FILE *f, const uint64_t *v, int n)
     fputc(']', f);
 }
 
+/* ',\n    "key": [v...]' of the stats' mpi object. */
+static void json_key_u64s(FILE *f, const char *key, const uint64_t *v, int n)
+{
+    fprintf(f, ",\n    \"%s\": ", key);
+    json_u64s(f, v, n);
+}
+
+/* The balance of the ranks' times, max / mean (1 when all are 0); *max and
+ * *sum (may be NULL) the slowest and the total. */
+static double balance_of(const double *t, int n, double *max, double *sum)
+{
+    double tmax = 0, tsum = 0;
+    for (int r = 0; r < n; r++) {
+        tmax = t[r] > tmax ? t[r] : tmax;
+        tsum += t[r];
+    }
+    if (max)
+        *max = tmax;
+    if (sum)
+        *sum = tsum;
+    return tsum > 0 ? tmax / (tsum / n) : 1.0;
+}
+
 static void write_mpi_stats(FILE *f, void *user)
 {
     const mpi_figures_t *m = user;
@@ -445,12 +468,9 @@ static void write_mpi_stats(FILE *f, void *user)
             m->ranks, m->subtrees, m->subtree_depth, m->coarse_depth,
             m->shared_on ? "true" : "false");
     json_doubles(f, m->time_s, m->ranks);
-    fputs(",\n    \"rank_cells_visited\": ", f);
-    json_u64s(f, m->cells, m->ranks);
-    fputs(",\n    \"rank_subtrees\": ", f);
-    json_u64s(f, m->count, m->ranks);
-    fputs(",\n    \"rank_shared_subtrees\": ", f);
-    json_u64s(f, m->shared, m->ranks);
+    json_key_u64s(f, "rank_cells_visited", m->cells, m->ranks);
+    json_key_u64s(f, "rank_subtrees", m->count, m->ranks);
+    json_key_u64s(f, "rank_shared_subtrees", m->shared, m->ranks);
     fputs(",\n    \"balance\": ", f);
     cli_json_double(f, m->balance);
     fprintf(f, ", \"gather_bytes\": %llu, \"requests\": %llu}",
@@ -742,12 +762,8 @@ int cli_mpi_build(const build_job_t *job, bool quiet)
                 sum.tests = p.tests;
                 memcpy(sum.box, s->box, sizeof sum.box);
             }
-            double tmax = 0, tsum = 0;
-            for (int r = 0; r < N; r++) {
-                tmax = fig.time_s[r] > tmax ? fig.time_s[r] : tmax;
-                tsum += fig.time_s[r];
-            }
-            fig.balance = tsum > 0 ? tmax / (tsum / N) : 1.0;
+            double tmax;
+            fig.balance = balance_of(fig.time_s, N, &tmax, NULL);
             sum.stats.time_s = tmax;
             sum.stats.threads = (int)all_threads;
             sum.stats.peak_bytes = (size_t)max_peak;
@@ -892,12 +908,8 @@ void cli_mpi_render_reduce(cli_mpi_render_t *r, ray_stats_t *total)
         *counts[i] = cli_mpi_sum_u64(*counts[i]);
     total->threads = (int)cli_mpi_sum_u64((uint64_t)total->threads);
     if (M.rank == 0) {
-        double tmax = 0, tsum = 0;
-        for (int q = 0; q < r->ranks; q++) {
-            tmax = r->rank_time_s[q] > tmax ? r->rank_time_s[q] : tmax;
-            tsum += r->rank_time_s[q];
-        }
-        r->balance = tsum > 0 ? tmax / (tsum / r->ranks) : 1.0;
+        double tmax, tsum;
+        r->balance = balance_of(r->rank_time_s, r->ranks, &tmax, &tsum);
         /* split: the slowest rank's render, as the build's time_s; frames
            dealt: the sum over the frames, as in one process */
         total->time_s = r->parts > 1 ? tmax : tsum;
@@ -913,10 +925,8 @@ void cli_mpi_render_stats(FILE *f, void *user)
             r->ranks, r->parts > 1 ? "tiles" : "whole_frames", RAY_TILE,
             !r->gather ? "none" : r->what == RAY_PACK_RGB ? "rgb" : "all");
     json_doubles(f, r->rank_time_s, r->ranks);
-    fputs(",\n    \"rank_rays\": ", f);
-    json_u64s(f, r->rank_rays, r->ranks);
-    fputs(",\n    \"rank_tape_evals\": ", f);
-    json_u64s(f, r->rank_tape_evals, r->ranks);
+    json_key_u64s(f, "rank_rays", r->rank_rays, r->ranks);
+    json_key_u64s(f, "rank_tape_evals", r->rank_tape_evals, r->ranks);
     fputs(",\n    \"balance\": ", f);
     cli_json_double(f, r->balance);
     fprintf(f, ", \"gather_bytes\": %llu, \"gather_time_s\": ",

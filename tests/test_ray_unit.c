@@ -326,6 +326,20 @@ static void test_source_seam(void **state)
     scene_free(&s);
 }
 
+/* Every buffer of a and b (of one size) the same, byte for byte. */
+static void assert_same_buffers(const ray_image_t *a, const ray_image_t *b)
+{
+    assert_true(a->width == b->width && a->height == b->height);
+    const size_t n = (size_t)a->width * a->height;
+    assert_memory_equal(a->t, b->t, n * sizeof *a->t);
+    assert_memory_equal(a->hit, b->hit, n);
+    assert_memory_equal(a->kind, b->kind, n);
+    assert_memory_equal(a->point, b->point, 3 * n * sizeof *a->point);
+    assert_memory_equal(a->normal, b->normal, 3 * n * sizeof *a->normal);
+    assert_memory_equal(a->dir, b->dir, 3 * n * sizeof *a->dir);
+    assert_memory_equal(a->rgb, b->rgb, 3 * n);
+}
+
 static void test_threads_identical(void **state)
 {
     (void)state;
@@ -341,13 +355,7 @@ static void test_threads_identical(void **state)
         size_t n = 37 * 29;
         assert_int_equal(sa.threads, 1);
         assert_int_equal(sb.threads, 3);
-        assert_memory_equal(a.t, b.t, n * sizeof *a.t);
-        assert_memory_equal(a.hit, b.hit, n);
-        assert_memory_equal(a.kind, b.kind, n);
-        assert_memory_equal(a.point, b.point, 3 * n * sizeof *a.point);
-        assert_memory_equal(a.normal, b.normal, 3 * n * sizeof *a.normal);
-        assert_memory_equal(a.dir, b.dir, 3 * n * sizeof *a.dir);
-        assert_memory_equal(a.rgb, b.rgb, 3 * n);
+        assert_same_buffers(&a, &b);
         assert_true(sa.hits == sb.hits && sa.tape_evals == sb.tape_evals &&
                     sa.segments == sb.segments && sa.tangent_hits == sb.tangent_hits);
         /* the buffers are consistent: point = ray_point(eye, dir, t), unit normals */
@@ -435,13 +443,7 @@ static void test_parts(void **state)
             sum.leaves += st.leaves;
         }
         assert_int_equal(pixels, n);
-        assert_memory_equal(whole.t, merged.t, n * sizeof *whole.t);
-        assert_memory_equal(whole.hit, merged.hit, n);
-        assert_memory_equal(whole.kind, merged.kind, n);
-        assert_memory_equal(whole.point, merged.point, 3 * n * sizeof *whole.point);
-        assert_memory_equal(whole.normal, merged.normal, 3 * n * sizeof *whole.normal);
-        assert_memory_equal(whole.dir, merged.dir, 3 * n * sizeof *whole.dir);
-        assert_memory_equal(whole.rgb, merged.rgb, 3 * n);
+        assert_same_buffers(&whole, &merged);
         assert_memory_equal(whole.rgb, shaded.rgb, 3 * n);
         assert_true(sum.rays == sw.rays && sum.hits == sw.hits &&
                     sum.tangent_hits == sw.tangent_hits && sum.tape_evals == sw.tape_evals &&

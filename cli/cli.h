@@ -129,7 +129,46 @@ int cli_mpi_build(const build_job_t *job, bool quiet);
 int cli_mpi_rank(void);
 /* The sum of v over the ranks, on every rank (collective). */
 uint64_t cli_mpi_sum_u64(uint64_t v);
-double cli_mpi_sum_double(double v);
+
+/* ivoct render over the ranks (cmd_render.c, docs/cluster.md).  With fewer
+ * frames than ranks each frame is cut into parts, one per rank (ray.h, "parts
+ * of an image"), and gathered on rank 0, which writes every file; else frame k
+ * goes to rank k mod N, which writes it. */
+struct ray_image;
+struct ray_stats;
+typedef struct cli_mpi_render {
+    int ranks;
+    int parts;               /* N: each frame in N parts; 1: the frames dealt out */
+    int gather;              /* the parts are gathered (a --png or a --vti to write) */
+    int what;                /* of the buffers (ray_pack_t): all, or the shaded image */
+    unsigned char *buf;      /* a packed part, the largest */
+    uint64_t gather_bytes;   /* sent to rank 0 (after reduce: by all ranks, on rank 0) */
+    double gather_time_s;    /* in the gathers; the stats give rank 0's */
+    /* on rank 0 after cli_mpi_render_reduce */
+    double *rank_time_s;     /* every rank's render time, summed over its frames */
+    uint64_t *rank_rays, *rank_tape_evals;
+    double balance;          /* max / mean rank time */
+} cli_mpi_render_t;
+/* The bytes of the gather's buffer: the largest of `parts` parts of a width
+ * x height image, packed with `what` (ray_pack_t). */
+double cli_mpi_render_buffer_bytes(int width, int height, int parts, int what);
+/* Set r up for `frames` frames of width x height, gathering the buffers
+ * `what` (ray_pack_t) when gather is set (local; -1 with err set: out of
+ * memory, or a part too large for one message).  cli_mpi_render_end frees
+ * it, whatever the outcome. */
+int cli_mpi_render_start(cli_mpi_render_t *r, int width, int height, int frames, int gather,
+                         int what, ivoct_error_t *err);
+/* Every rank's part of img onto rank 0's img (collective; r->parts > 1 and
+ * r->gather). */
+void cli_mpi_render_gather(cli_mpi_render_t *r, struct ray_image *img);
+/* After the last frame (collective): total, this rank's counts and render
+ * time, becomes the totals over the ranks (on every rank; time_s on rank 0:
+ * the slowest rank's when the frames are split, else the sum) and the
+ * per-rank figures go to rank 0. */
+void cli_mpi_render_reduce(cli_mpi_render_t *r, struct ray_stats *total);
+/* The stats' "mpi" object (a build_stats_extra_t writer; user: r), on rank 0. */
+void cli_mpi_render_stats(FILE *f, void *user);
+void cli_mpi_render_end(cli_mpi_render_t *r);
 /* End MPI (when started); returns rc. */
 int cli_mpi_finish(int rc);
 #endif

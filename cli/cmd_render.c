@@ -28,6 +28,11 @@ static const char SYNOPSIS[] =
     "By default the scene's octree is built first (its [octree] depth, tests and\n"
     "refine, as ivoct build does) and each ray is searched only over the surface\n"
     "leaves it meets, front to back; the build time is reported apart.\n"
+    "\n"
+    "Under mpirun (docs/cluster.md) each rank loads or builds the octree; one\n"
+    "image (fewer frames than ranks) is split into 16x16 tiles dealt out to the\n"
+    "ranks and gathered on rank 0, else the frames are dealt out; the files are\n"
+    "those of one process.\n"
     "\n";
 
 /* Leaf tapes are used when they are at most this share of the scene's tape
@@ -155,7 +160,7 @@ typedef struct octree_info {
 
 static int write_stats(io_group_t *g, const char *path, const scene_t *s, ray_method_t method, int width,
                        int height, int frames, const ray_stats_t *st, const octree_info_t *oi,
-                       ivoct_error_t *err)
+                       const build_stats_extra_t *extra, ivoct_error_t *err)
 {
     io_file_t f;
     if (io_open(&f, path, err))
@@ -204,6 +209,8 @@ static int write_stats(io_group_t *g, const char *path, const scene_t *s, ray_me
             cli_json_double(o, oi->leaf_tapes_time_s);
         }
     }
+    if (extra)
+        extra->write(o, extra->user);
     fputs("\n}\n", o);
     return io_group_add(g, &f, err);
 }
@@ -363,6 +370,9 @@ int cmd_render(int argc, char **argv)
     oct_tree_t *tree = NULL;
     oct_leaf_tapes_t *leaf_tapes = NULL;
     octree_info_t oi = {.file = octree};
+#ifdef IVOCT_MPI
+    cli_mpi_render_t mr = {0};
+#endif
     if (!method_given)
         method = s.method;
     /* the scene's camera, at the size of --size */
@@ -375,11 +385,28 @@ int cmd_render(int argc, char **argv)
         goto out;
     }
     const int width = cam0.width, height = cam0.height;
-    if (max_memory && image_bytes(width, height) > (double)max_memory) {
+    /* under mpirun (cli/mpi.c): with fewer frames than ranks each frame is cut
+       into `parts` parts, one per rank, gathered on rank 0; else frame k is
+       rendered by rank k mod N */
+    int rank = 0, ranks = 1, parts = 1;
+#ifdef IVOCT_MPI
+    if (cli_mpi_ranks())
+        ranks = cli_mpi_ranks(), rank = cli_mpi_rank();
+    if (frames < ranks)
+        parts = ranks;
+#endif
+    /* the image buffers, and the gather's buffer of one part: the shaded
+       image alone when no .vti is written */
+    double buffers = image_bytes(width, height);
+#ifdef IVOCT_MPI
+    const ray_pack_t gathered = vti ? RAY_PACK_ALL : RAY_PACK_RGB;
+    if (parts > 1 && (png || vti))
+        buffers += cli_mpi_render_buffer_bytes(width, height, parts, (int)gathered);
+#endif
+    if (max_memory && buffers > (double)max_memory) {
         fprintf(stderr, "ivoct render: the image buffers of %dx%d take %.1f MB: past the memory "
                         "budget of %.1f MB (raise --max-memory)\n",
-                width, height, image_bytes(width, height) / 1048576,
-                (double)max_memory / 1048576);
+                width, height, buffers / 1048576, (double)max_memory / 1048576);
         rc = EXIT_RUNTIME;
         goto out;
     }
@@ -411,7 +438,7 @@ int cmd_render(int argc, char **argv)
         op.threads = (int)threads;
         /* at least 1 byte: 0 would mean no limit */
         if (max_memory)
-            op.max_memory = (size_t)fmax(1.0, (double)max_memory - image_bytes(width, height));
+            op.max_memory = (size_t)fmax(1.0, (double)max_memory - buffers);
         if (oct_params_check(&op, &err)) {
             fprintf(stderr, "ivoct render: %s: [octree] %s\n", scene_path, err.msg);
             rc = EXIT_USAGE;
@@ -436,10 +463,10 @@ int cmd_render(int argc, char **argv)
         oi.build_time_s = omp_get_wtime() - t0;
     }
     oi.tree = tree;
-    if (max_memory && tree && tree_bytes(tree) + image_bytes(width, height) > (double)max_memory) {
+    if (max_memory && tree && tree_bytes(tree) + buffers > (double)max_memory) {
         fprintf(stderr, "ivoct render: the octree (%.1f MB) and the image buffers (%.1f MB) are "
                         "past the memory budget of %.1f MB (raise --max-memory)\n",
-                tree_bytes(tree) / 1048576, image_bytes(width, height) / 1048576,
+                tree_bytes(tree) / 1048576, buffers / 1048576,
                 (double)max_memory / 1048576);
         rc = EXIT_RUNTIME;
         goto out;
@@ -463,8 +490,8 @@ int cmd_render(int argc, char **argv)
             goto out;
         }
         oi.leaf_tapes_time_s = omp_get_wtime() - t0;
-        if (max_memory && tree_bytes(tree) + image_bytes(width, height) +
-                                  leaf_tapes_bytes(leaf_tapes) > (double)max_memory) {
+        if (max_memory &&
+            tree_bytes(tree) + buffers + leaf_tapes_bytes(leaf_tapes) > (double)max_memory) {
             oct_leaf_tapes_free(leaf_tapes); /* over the budget: the scene's tape */
             leaf_tapes = NULL;
         }
@@ -490,15 +517,22 @@ int cmd_render(int argc, char **argv)
         ro.progress_ctx = &prog;
     }
     ray_stats_t total = {0};
-    cli_test_pause("render");
-    /* under mpirun the frames are dealt out to the ranks, k mod N (cli/mpi.c) */
-    int rank = 0, ranks = 1;
+    build_stats_extra_t mpi_stats = {NULL, NULL};
 #ifdef IVOCT_MPI
-    if (cli_mpi_ranks())
-        ranks = cli_mpi_ranks(), rank = cli_mpi_rank();
+    if (ranks > 1) {
+        rc = cli_mpi_render_start(&mr, width, height, (int)frames, png || vti, (int)gathered, &err)
+                 ? EXIT_RUNTIME
+                 : EXIT_OK;
+        if ((rc = cli_mpi_agree(rc ? (fprintf(stderr, "ivoct render: %s\n", err.msg), rc) : rc)))
+            goto out;
+        mpi_stats = (build_stats_extra_t){cli_mpi_render_stats, &mr};
+    }
 #endif
+    cli_test_pause("render");
+    ro.part = rank;
+    ro.parts = parts;
     for (int k = 0; k < frames; k++) {
-        if (k % ranks != rank)
+        if (parts == 1 && k % ranks != rank)
             continue;
         ray_camera_t cam;
         const double two_pi = 6.283185307179586;
@@ -512,8 +546,18 @@ int cmd_render(int argc, char **argv)
         if (ray_render(s.tape, &cam, &src, &ro, &img, &st, &err)) {
             fprintf(stderr, "ivoct render: %s\n", err.msg);
             rc = EXIT_RUNTIME;
-            goto out;
         }
+#ifdef IVOCT_MPI
+        if (parts > 1) {
+            /* every part is rendered before the gather */
+            if ((rc = cli_mpi_agree(rc)))
+                goto out;
+            if (mr.gather)
+                cli_mpi_render_gather(&mr, &img);
+        }
+#endif
+        if (rc)
+            goto out;
         total.rays += st.rays;
         total.hits += st.hits;
         total.tangent_hits += st.tangent_hits;
@@ -522,6 +566,8 @@ int cmd_render(int argc, char **argv)
         total.leaves += st.leaves;
         total.time_s += st.time_s;
         total.threads = st.threads;
+        if (rank > 0 && parts > 1)
+            continue; /* rank 0 writes the gathered frame */
         cli_test_pause("frame");
         if ((png && write_output(&group, png, k, (int)frames, png_writer, &img, &cam, NULL, &err)) ||
             (vti && write_output(&group, vti, k, (int)frames, ray_write_vti, &img, &cam,
@@ -533,19 +579,15 @@ int cmd_render(int argc, char **argv)
     }
 #ifdef IVOCT_MPI
     if (ranks > 1) {
-        /* every rank rendered its frames: the totals are over all of them */
+        /* every rank rendered its frames or parts: the totals are over all of them */
         if ((rc = cli_mpi_agree(EXIT_OK)))
             goto out;
-        uint64_t *counts[] = {&total.rays, &total.hits, &total.tangent_hits, &total.tape_evals,
-                              &total.segments, &total.leaves};
-        for (size_t i = 0; i < sizeof counts / sizeof *counts; i++)
-            *counts[i] = cli_mpi_sum_u64(*counts[i]);
-        total.time_s = cli_mpi_sum_double(total.time_s);
-        total.threads = (int)cli_mpi_sum_u64((uint64_t)total.threads);
+        cli_mpi_render_reduce(&mr, &total);
     }
 #endif
     if (stats && rank == 0 &&
-        write_stats(&group, stats, &s, method, width, height, (int)frames, &total, &oi, &err)) {
+        write_stats(&group, stats, &s, method, width, height, (int)frames, &total, &oi,
+                    mpi_stats.write ? &mpi_stats : NULL, &err)) {
         fprintf(stderr, "ivoct render: %s\n", err.msg);
         rc = EXIT_RUNTIME;
         goto out;
@@ -571,15 +613,24 @@ int cmd_render(int argc, char **argv)
         else
             snprintf(how, sizeof how, "octree depth %d (%u leaves, built in %.3f s)",
                      tree->depth, tree->n_leaves, oi.build_time_s);
+        char over[96] = "";
+#ifdef IVOCT_MPI
+        if (ranks > 1)
+            snprintf(over, sizeof over, ", %d ranks (%s), balance %.2f", ranks,
+                     parts > 1 ? "each frame in tiles" : "frames dealt out", mr.balance);
+#endif
         printf("%s: %s, %dx%d%s, %s: %llu hits of %llu rays (%llu tangent), %llu leaves "
-               "searched, render %.3f s, %d thread%s\n",
+               "searched, render %.3f s, %d thread%s%s\n",
                s.source.name, ray_method_name(method), width, height,
                frames > 1 ? " per frame" : "", how, (unsigned long long)total.hits,
                (unsigned long long)total.rays, (unsigned long long)total.tangent_hits,
                (unsigned long long)total.leaves, total.time_s, total.threads,
-               total.threads > 1 ? "s" : "");
+               total.threads > 1 ? "s" : "", over);
     }
 out:
+#ifdef IVOCT_MPI
+    cli_mpi_render_end(&mr);
+#endif
     io_group_abort(&group); /* empty after a commit */
     oct_leaf_tapes_free(leaf_tapes);
     oct_free(tree);

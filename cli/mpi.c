@@ -18,8 +18,13 @@
  * per-rank figures.  Errors: every failure point is agreed on by all ranks
  * (cli_mpi_agree): the lowest failing rank's message is printed once, by rank
  * 0, and every rank exits with its status; outputs are renamed into place
- * only once every rank has written all of its own. */
+ * only once every rank has written all of its own.
+ *
+ * The render over MPI (cmd_render.c) uses the end of this file: with fewer
+ * frames than ranks each frame is cut into parts, one per rank (ray.h, "parts
+ * of an image"), gathered on rank 0; else the frames are dealt out. */
 #define _POSIX_C_SOURCE 200809L
+#include <limits.h>
 #include <mpi.h>
 #include <omp.h>
 #include <pthread.h>
@@ -33,6 +38,7 @@
 #include "../export/export.h"
 #include "../io/io.h"
 #include "../octree/octree.h"
+#include "../ray/ray.h"
 #include "../scene/scene.h"
 #include "cli.h"
 
@@ -43,7 +49,7 @@ static struct {
     long reported;      /* how much of it was dealt with */
 } M;
 
-enum { TAG_REQUEST = 1, TAG_GRANT, TAG_TEXT, TAG_SUBTREE };
+enum { TAG_REQUEST = 1, TAG_GRANT, TAG_TEXT, TAG_SUBTREE, TAG_PART };
 
 int cli_mpi_start(int *argc, char ***argv)
 {
@@ -87,13 +93,6 @@ uint64_t cli_mpi_sum_u64(uint64_t v)
     return sum;
 }
 
-double cli_mpi_sum_double(double v)
-{
-    double sum = v;
-    if (M.started)
-        MPI_Allreduce(&v, &sum, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
-    return sum;
-}
 
 /* What this rank wrote on its stderr since the last report. */
 static char *captured_text(void)
@@ -438,6 +437,29 @@ static void json_u64s(FILE *f, const uint64_t *v, int n)
     fputc(']', f);
 }
 
+/* ',\n    "key": [v...]' of the stats' mpi object. */
+static void json_key_u64s(FILE *f, const char *key, const uint64_t *v, int n)
+{
+    fprintf(f, ",\n    \"%s\": ", key);
+    json_u64s(f, v, n);
+}
+
+/* The balance of the ranks' times, max / mean (1 when all are 0); *max and
+ * *sum (may be NULL) the slowest and the total. */
+static double balance_of(const double *t, int n, double *max, double *sum)
+{
+    double tmax = 0, tsum = 0;
+    for (int r = 0; r < n; r++) {
+        tmax = t[r] > tmax ? t[r] : tmax;
+        tsum += t[r];
+    }
+    if (max)
+        *max = tmax;
+    if (sum)
+        *sum = tsum;
+    return tsum > 0 ? tmax / (tsum / n) : 1.0;
+}
+
 static void write_mpi_stats(FILE *f, void *user)
 {
     const mpi_figures_t *m = user;
@@ -446,12 +468,9 @@ static void write_mpi_stats(FILE *f, void *user)
             m->ranks, m->subtrees, m->subtree_depth, m->coarse_depth,
             m->shared_on ? "true" : "false");
     json_doubles(f, m->time_s, m->ranks);
-    fputs(",\n    \"rank_cells_visited\": ", f);
-    json_u64s(f, m->cells, m->ranks);
-    fputs(",\n    \"rank_subtrees\": ", f);
-    json_u64s(f, m->count, m->ranks);
-    fputs(",\n    \"rank_shared_subtrees\": ", f);
-    json_u64s(f, m->shared, m->ranks);
+    json_key_u64s(f, "rank_cells_visited", m->cells, m->ranks);
+    json_key_u64s(f, "rank_subtrees", m->count, m->ranks);
+    json_key_u64s(f, "rank_shared_subtrees", m->shared, m->ranks);
     fputs(",\n    \"balance\": ", f);
     cli_json_double(f, m->balance);
     fprintf(f, ", \"gather_bytes\": %llu, \"requests\": %llu}",
@@ -743,12 +762,8 @@ int cli_mpi_build(const build_job_t *job, bool quiet)
                 sum.tests = p.tests;
                 memcpy(sum.box, s->box, sizeof sum.box);
             }
-            double tmax = 0, tsum = 0;
-            for (int r = 0; r < N; r++) {
-                tmax = fig.time_s[r] > tmax ? fig.time_s[r] : tmax;
-                tsum += fig.time_s[r];
-            }
-            fig.balance = tsum > 0 ? tmax / (tsum / N) : 1.0;
+            double tmax;
+            fig.balance = balance_of(fig.time_s, N, &tmax, NULL);
             sum.stats.time_s = tmax;
             sum.stats.threads = (int)all_threads;
             sum.stats.peak_bytes = (size_t)max_peak;
@@ -807,4 +822,124 @@ out:
     oct_plan_free(plan);
     oct_plan_free(mine);
     return rc;
+}
+
+/* ---- the render over MPI (cmd_render.c) ----------------------------------------------- */
+
+/* The pixels of the largest of `parts` parts. */
+static size_t largest_part(int width, int height, int parts)
+{
+    size_t most = 0;
+    for (int p = 0; p < parts; p++) {
+        size_t n = ray_part_pixels(width, height, p, parts);
+        most = n > most ? n : most;
+    }
+    return most;
+}
+
+double cli_mpi_render_buffer_bytes(int width, int height, int parts, int what)
+{
+    return (double)largest_part(width, height, parts) * (double)ray_pack_bytes((ray_pack_t)what);
+}
+
+int cli_mpi_render_start(cli_mpi_render_t *r, int width, int height, int frames, int gather,
+                         int what, ivoct_error_t *err)
+{
+    memset(r, 0, sizeof *r);
+    r->ranks = M.size;
+    r->parts = frames < M.size ? M.size : 1;
+    r->gather = gather && r->parts > 1;
+    r->what = what;
+    r->rank_time_s = calloc((size_t)M.size, sizeof *r->rank_time_s);
+    r->rank_rays = calloc((size_t)M.size, sizeof *r->rank_rays);
+    r->rank_tape_evals = calloc((size_t)M.size, sizeof *r->rank_tape_evals);
+    size_t most = r->gather ? largest_part(width, height, r->parts) : 0;
+    if (most > INT_MAX) {
+        ivoct_error_set(err, "a part of the %dx%d image has %zu pixels: more than the %d "
+                             "that one message carries (use more ranks)",
+                        width, height, most, INT_MAX);
+        return -1;
+    }
+    r->buf = most ? malloc(most * ray_pack_bytes((ray_pack_t)what)) : NULL;
+    if (!r->rank_time_s || !r->rank_rays || !r->rank_tape_evals || (most && !r->buf)) {
+        ivoct_error_set(err, "out of memory for the gather of the image");
+        return -1;
+    }
+    return 0;
+}
+
+void cli_mpi_render_gather(cli_mpi_render_t *r, ray_image_t *img)
+{
+    double t0 = MPI_Wtime();
+    const ray_pack_t what = (ray_pack_t)r->what;
+    const size_t bytes = ray_pack_bytes(what);
+    MPI_Datatype pixel;
+    MPI_Type_contiguous((int)bytes, MPI_BYTE, &pixel);
+    MPI_Type_commit(&pixel);
+    if (M.rank > 0) {
+        size_t n = ray_part_pixels(img->width, img->height, M.rank, r->parts);
+        ray_image_pack(img, M.rank, r->parts, what, r->buf);
+        MPI_Send(r->buf, (int)n, pixel, 0, TAG_PART, MPI_COMM_WORLD);
+        r->gather_bytes += n * bytes;
+    } else {
+        /* one part at a time, in rank order: one buffer on rank 0 */
+        for (int q = 1; q < r->parts; q++) {
+            size_t n = ray_part_pixels(img->width, img->height, q, r->parts);
+            MPI_Recv(r->buf, (int)n, pixel, q, TAG_PART, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            ray_image_unpack(img, q, r->parts, what, r->buf);
+        }
+    }
+    MPI_Type_free(&pixel);
+    r->gather_time_s += MPI_Wtime() - t0;
+}
+
+void cli_mpi_render_reduce(cli_mpi_render_t *r, ray_stats_t *total)
+{
+    double mine = total->time_s;
+    MPI_Gather(&mine, 1, MPI_DOUBLE, r->rank_time_s, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    MPI_Gather(&total->rays, 1, MPI_UINT64_T, r->rank_rays, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+    MPI_Gather(&total->tape_evals, 1, MPI_UINT64_T, r->rank_tape_evals, 1, MPI_UINT64_T, 0,
+               MPI_COMM_WORLD);
+    uint64_t sent = r->gather_bytes;
+    MPI_Reduce(&sent, &r->gather_bytes, 1, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
+    uint64_t *counts[] = {&total->rays, &total->hits, &total->tangent_hits, &total->tape_evals,
+                          &total->segments, &total->leaves};
+    for (size_t i = 0; i < sizeof counts / sizeof *counts; i++)
+        *counts[i] = cli_mpi_sum_u64(*counts[i]);
+    total->threads = (int)cli_mpi_sum_u64((uint64_t)total->threads);
+    if (M.rank == 0) {
+        double tmax, tsum;
+        r->balance = balance_of(r->rank_time_s, r->ranks, &tmax, &tsum);
+        /* split: the slowest rank's render, as the build's time_s; frames
+           dealt: the sum over the frames, as in one process */
+        total->time_s = r->parts > 1 ? tmax : tsum;
+    }
+}
+
+void cli_mpi_render_stats(FILE *f, void *user)
+{
+    const cli_mpi_render_t *r = user;
+    fprintf(f,
+            ",\n  \"mpi\": {\"ranks\": %d, \"split\": \"%s\", \"tile\": %d, \"gathered\": \"%s\","
+            "\n    \"rank_time_s\": ",
+            r->ranks, r->parts > 1 ? "tiles" : "whole_frames", RAY_TILE,
+            !r->gather ? "none" : r->what == RAY_PACK_RGB ? "rgb" : "all");
+    json_doubles(f, r->rank_time_s, r->ranks);
+    json_key_u64s(f, "rank_rays", r->rank_rays, r->ranks);
+    json_key_u64s(f, "rank_tape_evals", r->rank_tape_evals, r->ranks);
+    fputs(",\n    \"balance\": ", f);
+    cli_json_double(f, r->balance);
+    fprintf(f, ", \"gather_bytes\": %llu, \"gather_time_s\": ",
+            (unsigned long long)r->gather_bytes);
+    cli_json_double(f, r->gather_time_s);
+    fputc('}', f);
+}
+
+void cli_mpi_render_end(cli_mpi_render_t *r)
+{
+    free(r->buf);
+    free(r->rank_time_s);
+    free(r->rank_rays);
+    free(r->rank_tape_evals);
+    memset(r, 0, sizeof *r);
 }

@@ -265,6 +265,34 @@ typedef struct ray_image {
 int ray_image_alloc(ray_image_t *img, int width, int height, ivoct_error_t *err);
 void ray_image_free(ray_image_t *img);
 
+/* ---- parts of an image (the render over MPI: cli/, docs/cluster.md) ------------------
+ * The image is cut into tiles of RAY_TILE x RAY_TILE pixels (the last row and
+ * column of tiles may be smaller), tile (tx, ty) counted from the top left.
+ * Part p of n (0 <= p < n) is the tiles with (tx + ty) mod n = p: diagonals
+ * dealt round robin, so that every part has its share of each region of the
+ * image (the cost of a ray varies strongly across an image: background rows
+ * are cheap).  n <= 1: one part, the whole image.  ray_render renders one part
+ * (ray_render_opts_t.part, .parts); a part travels packed, its tiles in
+ * row-major order, each tile's pixels row by row: every buffer
+ * (RAY_PACK_ALL, RAY_PIXEL_BYTES a pixel) or the shaded image alone
+ * (RAY_PACK_RGB, 3 bytes a pixel). */
+#define RAY_TILE 16
+#define RAY_PIXEL_BYTES (10 * sizeof(double) + 5) /* t point normal dir, hit kind rgb */
+typedef enum ray_pack { RAY_PACK_ALL, RAY_PACK_RGB } ray_pack_t;
+
+/* The bytes of one packed pixel. */
+size_t ray_pack_bytes(ray_pack_t what);
+
+/* The pixels of part `part` of `parts` of a width x height image. */
+size_t ray_part_pixels(int width, int height, int part, int parts);
+
+/* Copy the buffers `what` of part `part` of `parts` of img into buf
+ * (ray_pack_bytes(what) x ray_part_pixels bytes), or back from it into img. */
+void ray_image_pack(const ray_image_t *img, int part, int parts, ray_pack_t what,
+                    unsigned char *buf);
+void ray_image_unpack(ray_image_t *img, int part, int parts, ray_pack_t what,
+                      const unsigned char *buf);
+
 typedef struct ray_stats {
     uint64_t rays;         /* primary rays (pixels) */
     uint64_t hits;         /* rays with a hit */
@@ -280,6 +308,9 @@ typedef struct ray_render_opts {
     ray_method_t method;
     ray_opts_t roots;
     int threads;   /* <= 0: OpenMP's default */
+    /* Render only part `part` of `parts` (above; parts <= 1: the whole image,
+     * the default); the rest of the buffers is left as it was. */
+    int part, parts;
     /* Called now and then with the fraction done, from one thread only; may be NULL. */
     void (*progress)(void *ctx, double fraction);
     void *progress_ctx;
@@ -289,8 +320,9 @@ void ray_render_opts_default(ray_render_opts_t *o);
 
 /* Render img (allocated with the camera's size) with the given tape, camera
  * and source.  OpenMP over tiles of the image; the buffers and the counters in
- * stats do not depend on the number of threads.  Errors: size mismatch, out
- * of memory. */
+ * stats do not depend on the number of threads.  Every counter is a sum over
+ * the tiles: the parts' counters add up to the whole image's (rays: the
+ * part's pixels).  Errors: size mismatch, an invalid part, out of memory. */
 int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *src,
                const ray_render_opts_t *opts, ray_image_t *img, ray_stats_t *stats,
                ivoct_error_t *err);

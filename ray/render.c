@@ -8,7 +8,7 @@
 
 #include "ray.h"
 
-#define TILE 16
+#define TILE RAY_TILE
 
 /* ---- the box source (--no-octree) ------------------------------------------------- */
 
@@ -84,6 +84,99 @@ void ray_image_free(ray_image_t *img)
     free(img->dir);
     free(img->rgb);
     memset(img, 0, sizeof *img);
+}
+
+/* ---- parts of an image ------------------------------------------------------------------- */
+
+/* The pixels [c0, c1) x [r0, r1) of tile (tx, ty). */
+static void tile_rect(int width, int height, int tx, int ty, int *c0, int *r0, int *c1, int *r1)
+{
+    *c0 = tx * TILE, *r0 = ty * TILE;
+    *c1 = *c0 + TILE < width ? *c0 + TILE : width;
+    *r1 = *r0 + TILE < height ? *r0 + TILE : height;
+}
+
+static int in_part(int tx, int ty, int part, int parts)
+{
+    return parts <= 1 || (tx + ty) % parts == part;
+}
+
+size_t ray_part_pixels(int width, int height, int part, int parts)
+{
+    size_t n = 0;
+    for (int ty = 0; ty * TILE < height; ty++)
+        for (int tx = 0; tx * TILE < width; tx++)
+            if (in_part(tx, ty, part, parts)) {
+                int c0, r0, c1, r1;
+                tile_rect(width, height, tx, ty, &c0, &r0, &c1, &r1);
+                n += (size_t)(c1 - c0) * (size_t)(r1 - r0);
+            }
+    return n;
+}
+
+size_t ray_pack_bytes(ray_pack_t what) { return what == RAY_PACK_RGB ? 3 : RAY_PIXEL_BYTES; }
+
+/* One pixel's buffers to or from its packed bytes. */
+static void pixel_pack(const ray_image_t *img, size_t i, ray_pack_t what, unsigned char *b)
+{
+    if (what == RAY_PACK_ALL) {
+        memcpy(b, img->t + i, sizeof(double)), b += sizeof(double);
+        memcpy(b, img->point + 3 * i, 3 * sizeof(double)), b += 3 * sizeof(double);
+        memcpy(b, img->normal + 3 * i, 3 * sizeof(double)), b += 3 * sizeof(double);
+        memcpy(b, img->dir + 3 * i, 3 * sizeof(double)), b += 3 * sizeof(double);
+        *b++ = img->hit[i];
+        *b++ = img->kind[i];
+    }
+    memcpy(b, img->rgb + 3 * i, 3);
+}
+
+static void pixel_unpack(ray_image_t *img, size_t i, ray_pack_t what, const unsigned char *b)
+{
+    if (what == RAY_PACK_ALL) {
+        memcpy(img->t + i, b, sizeof(double)), b += sizeof(double);
+        memcpy(img->point + 3 * i, b, 3 * sizeof(double)), b += 3 * sizeof(double);
+        memcpy(img->normal + 3 * i, b, 3 * sizeof(double)), b += 3 * sizeof(double);
+        memcpy(img->dir + 3 * i, b, 3 * sizeof(double)), b += 3 * sizeof(double);
+        img->hit[i] = *b++;
+        img->kind[i] = *b++;
+    }
+    memcpy(img->rgb + 3 * i, b, 3);
+}
+
+/* The pixels of a part in their order: packed from `from` into out, or
+ * (from NULL) unpacked from in into `into`. */
+static void part_copy(const ray_image_t *from, unsigned char *out, ray_image_t *into,
+                      const unsigned char *in, int part, int parts, ray_pack_t what)
+{
+    const int W = from ? from->width : into->width, H = from ? from->height : into->height;
+    const size_t step = ray_pack_bytes(what);
+    for (int ty = 0; ty * TILE < H; ty++)
+        for (int tx = 0; tx * TILE < W; tx++) {
+            if (!in_part(tx, ty, part, parts))
+                continue;
+            int c0, r0, c1, r1;
+            tile_rect(W, H, tx, ty, &c0, &r0, &c1, &r1);
+            for (int row = r0; row < r1; row++)
+                for (int col = c0; col < c1; col++) {
+                    size_t i = (size_t)row * W + col;
+                    if (from)
+                        pixel_pack(from, i, what, out), out += step;
+                    else
+                        pixel_unpack(into, i, what, in), in += step;
+                }
+        }
+}
+
+void ray_image_pack(const ray_image_t *img, int part, int parts, ray_pack_t what,
+                    unsigned char *buf)
+{
+    part_copy(img, buf, NULL, NULL, part, parts, what);
+}
+
+void ray_image_unpack(ray_image_t *img, int part, int parts, ray_pack_t what,
+                      const unsigned char *buf)
+{
+    part_copy(NULL, NULL, img, buf, part, parts, what);
 }
 
 /* ---- shading ------------------------------------------------------------------------------ */
@@ -229,8 +322,8 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
                         ray_image_t *img, int tx, int ty, counters_t *cnt)
 {
     const int W = img->width, H = img->height;
-    int c0 = tx * TILE, r0 = ty * TILE;
-    int c1 = c0 + TILE < W ? c0 + TILE : W, r1 = r0 + TILE < H ? r0 + TILE : H;
+    int c0, r0, c1, r1;
+    tile_rect(W, H, tx, ty, &c0, &r0, &c1, &r1);
     size_t hits[TILE * TILE];
     int nh = 0;
 
@@ -302,8 +395,16 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
         ivoct_error_set(err, "ray_render: invalid method %d", (int)opts->method);
         return 1;
     }
+    const int parts = opts->parts > 1 ? opts->parts : 1, part = parts > 1 ? opts->part : 0;
+    if (part < 0 || part >= parts) {
+        ivoct_error_set(err, "ray_render: part %d of %d", opts->part, opts->parts);
+        return 1;
+    }
     const int tiles_x = (img->width + TILE - 1) / TILE, tiles_y = (img->height + TILE - 1) / TILE;
     const long ntiles = (long)tiles_x * tiles_y;
+    long mine = 0; /* the tiles of the part */
+    for (long tile = 0; tile < ntiles; tile++)
+        mine += in_part((int)(tile % tiles_x), (int)(tile / tiles_x), part, parts);
     const int nthreads = opts->threads > 0 ? opts->threads : omp_get_max_threads();
     double start = omp_get_wtime();
     uint64_t hits = 0, tangent = 0, evals = 0, segments = 0, leaves = 0;
@@ -323,11 +424,11 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
         used = omp_get_num_threads();
 #pragma omp for schedule(dynamic, 1)
         for (long tile = 0; tile < ntiles; tile++) {
-            if (!ok)
+            const int tx = (int)(tile % tiles_x), ty = (int)(tile / tiles_x);
+            if (!ok || !in_part(tx, ty, part, parts))
                 continue;
             counters_t cnt = {0, 0, 0, 0, 0};
-            render_tile(tape, ws, cam, src, state, opts, img, (int)(tile % tiles_x),
-                        (int)(tile / tiles_x), &cnt);
+            render_tile(tape, ws, cam, src, state, opts, img, tx, ty, &cnt);
             hits += cnt.hits;
             tangent += cnt.tangent;
             evals += cnt.evals;
@@ -337,7 +438,7 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
 #pragma omp atomic capture
             now = ++done;
             if (opts->progress && omp_get_thread_num() == 0)
-                opts->progress(opts->progress_ctx, (double)now / (double)ntiles);
+                opts->progress(opts->progress_ctx, (double)now / (double)mine);
         }
         free(state);
         tape_ws_free(ws);
@@ -349,7 +450,7 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
     if (opts->progress)
         opts->progress(opts->progress_ctx, 1.0);
     if (stats) {
-        stats->rays = (uint64_t)img->width * (uint64_t)img->height;
+        stats->rays = ray_part_pixels(img->width, img->height, part, parts);
         stats->hits = hits;
         stats->tangent_hits = tangent;
         stats->tape_evals = evals;

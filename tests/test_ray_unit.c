@@ -326,6 +326,20 @@ static void test_source_seam(void **state)
     scene_free(&s);
 }
 
+/* Every buffer of a and b (of one size) the same, byte for byte. */
+static void assert_same_buffers(const ray_image_t *a, const ray_image_t *b)
+{
+    assert_true(a->width == b->width && a->height == b->height);
+    const size_t n = (size_t)a->width * a->height;
+    assert_memory_equal(a->t, b->t, n * sizeof *a->t);
+    assert_memory_equal(a->hit, b->hit, n);
+    assert_memory_equal(a->kind, b->kind, n);
+    assert_memory_equal(a->point, b->point, 3 * n * sizeof *a->point);
+    assert_memory_equal(a->normal, b->normal, 3 * n * sizeof *a->normal);
+    assert_memory_equal(a->dir, b->dir, 3 * n * sizeof *a->dir);
+    assert_memory_equal(a->rgb, b->rgb, 3 * n);
+}
+
 static void test_threads_identical(void **state)
 {
     (void)state;
@@ -341,13 +355,7 @@ static void test_threads_identical(void **state)
         size_t n = 37 * 29;
         assert_int_equal(sa.threads, 1);
         assert_int_equal(sb.threads, 3);
-        assert_memory_equal(a.t, b.t, n * sizeof *a.t);
-        assert_memory_equal(a.hit, b.hit, n);
-        assert_memory_equal(a.kind, b.kind, n);
-        assert_memory_equal(a.point, b.point, 3 * n * sizeof *a.point);
-        assert_memory_equal(a.normal, b.normal, 3 * n * sizeof *a.normal);
-        assert_memory_equal(a.dir, b.dir, 3 * n * sizeof *a.dir);
-        assert_memory_equal(a.rgb, b.rgb, 3 * n);
+        assert_same_buffers(&a, &b);
         assert_true(sa.hits == sb.hits && sa.tape_evals == sb.tape_evals &&
                     sa.segments == sb.segments && sa.tangent_hits == sb.tangent_hits);
         /* the buffers are consistent: point = ray_point(eye, dir, t), unit normals */
@@ -364,6 +372,94 @@ static void test_threads_identical(void **state)
         ray_image_free(&a);
         ray_image_free(&b);
     }
+    scene_free(&s);
+}
+
+/* The image rendered in parts (ray_render_opts_t.part), each part packed and
+ * unpacked into one image, is the image rendered whole, byte for byte (every
+ * buffer, or the shaded image alone with RAY_PACK_RGB), and the
+ * parts' counters add up to the whole's; a part leaves the rest of the buffers
+ * as they were. */
+static void test_parts(void **state)
+{
+    (void)state;
+    scene_t s;
+    tu_load_scene("chubs", &s);
+    ray_box_source_t bs;
+    ray_source_t src = ray_box_source(&bs, s.box);
+    const int W = 53, H = 41; /* 4 x 3 tiles, the last column and row partial */
+    const size_t n = (size_t)W * H;
+    ivoct_error_t err;
+    ray_camera_t cam;
+    assert_int_equal(ray_camera_init(&cam, s.camera.eye, s.camera.target, s.camera.up,
+                                     s.camera.fov, W, H, &err), 0);
+    ray_image_t whole, merged, shaded, piece;
+    ray_stats_t sw;
+    render(&s, W, H, RAY_NEWTON_AH, 2, &src, &whole, &sw);
+    assert_true(sw.hits > 100 && sw.hits < n);
+    assert_int_equal(ray_image_alloc(&merged, W, H, &err), 0);
+    assert_int_equal(ray_image_alloc(&piece, W, H, &err), 0);
+    assert_int_equal(ray_image_alloc(&shaded, W, H, &err), 0);
+    assert_int_equal(ray_pack_bytes(RAY_PACK_ALL), RAY_PIXEL_BYTES);
+    assert_int_equal(ray_pack_bytes(RAY_PACK_RGB), 3);
+    const int counts[] = {1, 2, 3, 7}; /* 7: parts 6 is empty (tx + ty <= 5) */
+    for (size_t c = 0; c < sizeof counts / sizeof *counts; c++) {
+        const int parts = counts[c];
+        ray_stats_t sum = {0};
+        size_t pixels = 0;
+        memset(merged.rgb, 0, 3 * n);
+        memset(shaded.rgb, 0, 3 * n);
+        for (int part = 0; part < parts; part++) {
+            ray_render_opts_t o;
+            ray_render_opts_default(&o);
+            o.threads = 2;
+            o.part = part;
+            o.parts = parts;
+            memset(piece.rgb, 0xAB, 3 * n);
+            ray_stats_t st;
+            assert_int_equal(ray_render(s.tape, &cam, &src, &o, &piece, &st, &err), 0);
+            size_t np = ray_part_pixels(W, H, part, parts);
+            assert_int_equal(st.rays, np);
+            if (parts == 7 && part == 6)
+                assert_int_equal(np, 0);
+            /* the pixels outside the part were not touched: as many 0xAB
+             * triples as pixels outside it at least (a shaded pixel is never
+             * 0xAB 0xAB 0xAB) */
+            size_t untouched = 0;
+            for (size_t i = 0; i < n; i++)
+                untouched += piece.rgb[3 * i] == 0xAB && piece.rgb[3 * i + 1] == 0xAB &&
+                             piece.rgb[3 * i + 2] == 0xAB;
+            assert_int_equal(untouched, n - np);
+            unsigned char *buf = malloc(np * RAY_PIXEL_BYTES + 1);
+            assert_non_null(buf);
+            ray_image_pack(&piece, part, parts, RAY_PACK_ALL, buf);
+            ray_image_unpack(&merged, part, parts, RAY_PACK_ALL, buf);
+            ray_image_pack(&piece, part, parts, RAY_PACK_RGB, buf);
+            ray_image_unpack(&shaded, part, parts, RAY_PACK_RGB, buf);
+            free(buf);
+            pixels += np;
+            sum.rays += st.rays, sum.hits += st.hits, sum.tangent_hits += st.tangent_hits;
+            sum.tape_evals += st.tape_evals, sum.segments += st.segments;
+            sum.leaves += st.leaves;
+        }
+        assert_int_equal(pixels, n);
+        assert_same_buffers(&whole, &merged);
+        assert_memory_equal(whole.rgb, shaded.rgb, 3 * n);
+        assert_true(sum.rays == sw.rays && sum.hits == sw.hits &&
+                    sum.tangent_hits == sw.tangent_hits && sum.tape_evals == sw.tape_evals &&
+                    sum.segments == sw.segments && sum.leaves == sw.leaves);
+    }
+    /* a part outside [0, parts) is refused */
+    ray_render_opts_t o;
+    ray_render_opts_default(&o);
+    o.part = 3;
+    o.parts = 3;
+    assert_int_not_equal(ray_render(s.tape, &cam, &src, &o, &piece, NULL, &err), 0);
+    assert_non_null(strstr(err.msg, "part 3 of 3"));
+    ray_image_free(&whole);
+    ray_image_free(&merged);
+    ray_image_free(&shaded);
+    ray_image_free(&piece);
     scene_free(&s);
 }
 
@@ -533,7 +629,7 @@ int main(void)
         cmocka_unit_test(test_clip),              cmocka_unit_test(test_root_cases),
         cmocka_unit_test(test_root_edges),        cmocka_unit_test(test_source_seam),
         cmocka_unit_test(test_threads_identical), cmocka_unit_test(test_singular_normal),
-        cmocka_unit_test(test_writers),
+        cmocka_unit_test(test_parts),             cmocka_unit_test(test_writers),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -3,10 +3,12 @@
  * A post-pass over the finished leaves, one leaf at a time as far as the
  * result goes (so it does not depend on threads or batching): continuity
  * first (the whole tape when it is total, else tape_check_continuous over the
- * leaf), then the 8 corners, and only where they show no sign change the 7
- * other samples.  The corners of up to 8
- * leaves that share a tape go through the interval evaluator in one pass (64
- * lanes); each lane is computed on its own, so batching changes no result.
+ * leaf), then the samples in three waves, each only for the leaves the waves
+ * before left without a witness: two opposite corners, the other six
+ * corners, the centre and the face centres.  The samples of a wave of up to
+ * 32 leaves that share a tape go through the interval evaluator in one call
+ * (64 lanes or more); each lane is computed on its own, so batching changes
+ * no result.
  * Where the tape has min, max or abs and is total, each leaf's pruned tape
  * (oct_leaf_tapes_build, no margin: every sample lies in the leaf) is used:
  * it equals f on the leaf. */
@@ -20,7 +22,7 @@
 enum {
     CODE_ZERO = 1,         /* 1 + k */
     CODE_SIGNS = 16,       /* 16 + 14 k0 + (k1 < k0 ? k1 : k1 - 1): 210 codes */
-    BATCH_LEAVES = 8,      /* 8 leaves x 8 corners = TAPE_BATCH lanes */
+    BATCH_LEAVES = 32,     /* 32 leaves x 2 corners = TAPE_BATCH lanes in the first wave */
     CHUNK = 256,           /* leaves per scheduling unit */
 };
 
@@ -96,12 +98,13 @@ static int sign_of(iv_t v)
     return 2;
 }
 
-/* the witness from the signs of samples 0..n-1: a sign change (the first
- * negative and the first positive sample), else a zero, else none */
-static uint8_t witness_of(const signed char *sg, int n)
+/* the witness from the signs of the samples (2 where not evaluated or not
+ * certain): a sign change (the first negative and the first positive sample
+ * by index), else a zero, else none */
+static uint8_t witness_of(const signed char *sg)
 {
     int neg = -1, pos = -1, zero = -1;
-    for (int k = 0; k < n; k++) {
+    for (int k = 0; k < OCT_SAMPLES; k++) {
         if (sg[k] == -1 && neg < 0)
             neg = k;
         else if (sg[k] == 1 && pos < 0)
@@ -119,60 +122,51 @@ static uint8_t witness_of(const signed char *sg, int n)
 typedef struct worker {
     tape_ws_t *ws;
     iv_t *slots;
-    iv_box_t boxes[TAPE_BATCH];
-    iv_t out[TAPE_BATCH];
+    iv_box_t boxes[BATCH_LEAVES * OCT_SAMPLES];
+    iv_t out[BATCH_LEAVES * OCT_SAMPLES];
 } worker_t;
+
+/* The waves of samples: two opposite corners, the other corners, the rest.
+ * A leaf goes on to the next wave only while the samples so far give no
+ * witness, and its witness is witness_of over the samples so far: a
+ * function of the leaf alone. */
+static const int WAVE[3][2] = {{0, 2}, {2, 8}, {8, OCT_SAMPLES}};
+static const int ORDER[OCT_SAMPLES] = {0, 7, 1, 2, 3, 4, 5, 6, 8, 9, 10, 11, 12, 13, 14};
 
 /* leaves [first, first + n) that share tape t (n <= BATCH_LEAVES) */
 static void certify_batch(const oct_tree_t *tree, const tape_t *t, int total, uint32_t first,
                           int n, worker_t *w, uint8_t *code)
 {
     iv_box_t leaf[BATCH_LEAVES];
-    int cont[BATCH_LEAVES];
     signed char sg[BATCH_LEAVES][OCT_SAMPLES];
-    int m = 0, idx[BATCH_LEAVES];
+    int open = 0, idx[BATCH_LEAVES];
     for (int i = 0; i < n; i++) {
         leaf[i] = oct_leaf_box(tree, &tree->leaves[first + i]);
         code[first + i] = 0;
-        cont[i] = total || tape_check_continuous(t, &leaf[i], w->slots, NULL) ==
-                               TAPE_DOMAIN_CONTINUOUS;
         memset(sg[i], 2, sizeof sg[i]);
-        if (cont[i])
-            idx[m++] = i;
+        if (total ||
+            tape_check_continuous(t, &leaf[i], w->slots, NULL) == TAPE_DOMAIN_CONTINUOUS)
+            idx[open++] = i;
     }
-    /* the corners of every continuous leaf, in one pass */
-    for (int j = 0; j < m; j++)
-        for (int k = 0; k < 8; k++) {
-            double p[3];
-            oct_leaf_sample(&leaf[idx[j]], k, p);
-            w->boxes[8 * j + k] = (iv_box_t){{p[0], p[0]}, {p[1], p[1]}, {p[2], p[2]}};
+    for (int v = 0; v < 3 && open; v++) {
+        const int a = WAVE[v][0], m = WAVE[v][1] - a;
+        for (int j = 0; j < open; j++)
+            for (int q = 0; q < m; q++) {
+                double p[3];
+                oct_leaf_sample(&leaf[idx[j]], ORDER[a + q], p);
+                w->boxes[m * j + q] = (iv_box_t){{p[0], p[0]}, {p[1], p[1]}, {p[2], p[2]}};
+            }
+        tape_eval_interval(t, w->ws, (size_t)(m * open), w->boxes, w->out);
+        int still = 0;
+        for (int j = 0; j < open; j++) {
+            const int i = idx[j];
+            for (int q = 0; q < m; q++)
+                sg[i][ORDER[a + q]] = (signed char)sign_of(w->out[m * j + q]);
+            code[first + i] = witness_of(sg[i]);
+            if (!code[first + i])
+                idx[still++] = i;
         }
-    if (m)
-        tape_eval_interval(t, w->ws, (size_t)(8 * m), w->boxes, w->out);
-    int open = 0, oidx[BATCH_LEAVES];
-    for (int j = 0; j < m; j++) {
-        int i = idx[j];
-        for (int k = 0; k < 8; k++)
-            sg[i][k] = (signed char)sign_of(w->out[8 * j + k]);
-        code[first + i] = witness_of(sg[i], 8);
-        if (!code[first + i])
-            oidx[open++] = i;
-    }
-    /* the other samples of the leaves still open */
-    enum { REST = OCT_SAMPLES - 8 };
-    for (int j = 0; j < open; j++)
-        for (int k = 0; k < REST; k++) {
-            double p[3];
-            oct_leaf_sample(&leaf[oidx[j]], 8 + k, p);
-            w->boxes[REST * j + k] = (iv_box_t){{p[0], p[0]}, {p[1], p[1]}, {p[2], p[2]}};
-        }
-    if (open)
-        tape_eval_interval(t, w->ws, (size_t)(REST * open), w->boxes, w->out);
-    for (int j = 0; j < open; j++) {
-        int i = oidx[j];
-        for (int k = 0; k < REST; k++)
-            sg[i][8 + k] = (signed char)sign_of(w->out[REST * j + k]);
-        code[first + i] = witness_of(sg[i], OCT_SAMPLES);
+        open = still;
     }
 }
 

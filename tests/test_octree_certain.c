@@ -321,6 +321,20 @@ static void test_same_everywhere(void **state)
         size_t n;
         unsigned char *bytes = tu_read_file(path, &n);
         assert_int_equal(bytes[8], 4);
+        /* a code that names no witness, re-signed: refused with its reason */
+        assert_true(n > 8 + ref->n_leaves);
+        bytes[n - 9] = 250; /* the last leaf's code, before the checksum */
+        uint64_t h = 0xcbf29ce484222325ull;
+        for (size_t i = 0; i + 8 < n; i++)
+            h = (h ^ bytes[i]) * 0x100000001b3ull;
+        memcpy(bytes + n - 8, &h, 8); /* little-endian host (x86-64) */
+        FILE *f = fopen(path, "wb");
+        assert_non_null(f);
+        assert_int_equal(fwrite(bytes, 1, n, f), n);
+        fclose(f);
+        oct_tree_t *bad = NULL;
+        assert_int_not_equal(oct_load(path, &bad, NULL, &err), 0);
+        assert_non_null(strstr(err.msg, "bad certain leaf code"));
         free(bytes);
         oct_free(back);
         free(ref->certain);

@@ -137,7 +137,7 @@ static void test_witnesses_mpfi(void **state)
         /* a regression floor: at depth 5 at least half the leaves of these
          * surfaces are certain (most of the rest hold no surface: coarse
          * leaves the chain could not exclude; thin-shell's two sheets are
-         * 1e-3 apart, so a leaf's samples miss the sign change of most) */
+         * 2e-3 apart, so a leaf's samples miss the sign change of most) */
         if (strcmp(scenes[k], "thin-shell") != 0)
             assert_true(n > 0 && n * 2 >= (uint64_t)tree->n_leaves);
         oct_free(tree);

@@ -103,6 +103,7 @@ typedef struct build_job {
     exports_t ex;
     int threads;                  /* --threads (0: all cores) */
     size_t max_memory;            /* --max-memory (0: none) */
+    bool certain;                 /* --certain: oct_certify after the build */
 } build_job_t;
 
 /* Write every output of job for tree into g (not committed): EXIT_OK, or

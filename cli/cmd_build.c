@@ -77,12 +77,22 @@ static int write_stats(const scene_t *s, const oct_tree_t *t, io_group_t *g, con
             s->tape->n, (unsigned long long)st->tape_clauses_evaluated);
     cli_json_double(o, st->time_s);
     size_t storage = (size_t)t->n_nodes * sizeof *t->nodes + (size_t)t->n_leaves * sizeof *t->leaves;
+    if (t->certain)
+        storage += (size_t)t->n_leaves * sizeof *t->certain;
     fprintf(o, ",\n  \"peak_bytes\": %zu,\n  \"nodes\": %u,\n  \"storage_bytes\": %zu,\n"
                "  \"bytes_per_leaf\": ",
             st->peak_bytes, t->n_nodes, storage);
     cli_json_double(o, t->n_leaves ? (double)storage / t->n_leaves : 0.0);
     fprintf(o, ",\n  \"leaf_record_bytes\": %zu,\n  \"threads\": %d,\n  \"simd\": \"%s\"",
             sizeof(oct_leaf_t), st->threads, tape_simd_name());
+    if (t->certain) {
+        fprintf(o, ",\n  \"leaves_certain\": %llu,\n  \"leaves_certain_share\": ",
+                (unsigned long long)st->leaves_certain);
+        cli_json_double(o, t->n_leaves ? (double)st->leaves_certain / t->n_leaves : 0.0);
+        fputs(",\n  \"certain_time_s\": ", o);
+        cli_json_double(o, st->certain_time_s);
+        fprintf(o, ",\n  \"certain_bytes_per_leaf\": %zu", sizeof *t->certain);
+    }
     if (extra)
         extra->write(o, extra->user);
     fputs("\n}\n", o);
@@ -281,7 +291,7 @@ int cmd_build(int argc, char **argv)
     long depth = -1, threads = 0;
     double refine = -1;
     size_t max_memory = 0;
-    bool quiet = false, tests_given = false;
+    bool quiet = false, tests_given = false, certain = false;
 
     const cli_option_t options[] = {
         {.name = "--help", .alias = "-h", .kind = CLI_HELP},
@@ -321,6 +331,14 @@ int cmd_build(int argc, char **argv)
         {.name = "--mesh", .kind = CLI_STRING, .target = &ex.mesh, .arg = "F",
          .help = "a triangle mesh of the surface (OpenVDB volumeToMesh of sdf);\n"
                  "the format follows the name: .vtp, .ply or .obj"},
+        {.name = "--certain", .kind = CLI_FLAG, .target = &certain,
+         .help = "after the build, prove which surface leaves surely hold\n"
+                 "surface (a certified sign change or zero at sample points,\n"
+                 "or a modal inner estimate of the range; f continuous on the\n"
+                 "leaf) and keep a witness: adds the columns\n"
+                 "certain,wx0,wy0,wz0,wx1,wy1,wz1 to --cells, the cell array\n"
+                 "certain to --vtu and --htg, the flags to --save and\n"
+                 "leaves_certain to --stats (octree/README.md); not under mpirun"},
         {.name = "--quiet", .alias = "-q", .kind = CLI_FLAG, .target = &quiet,
          .help = "no summary on stdout, no progress bar"},
         {0},
@@ -365,8 +383,12 @@ int cmd_build(int argc, char **argv)
     p.max_memory = max_memory;
     p.progress = !quiet && isatty(2) ? cli_show_progress : NULL;
     p.progress_user = &prog;
-    const build_job_t job = {&s, p, cells, save, stats, ex, (int)threads, max_memory};
+    const build_job_t job = {&s, p, cells, save, stats, ex, (int)threads, max_memory, certain};
 #ifdef IVOCT_MPI
+    if (cli_mpi_ranks() && certain) {
+        rc = cli_usage_error("build", "--certain is not supported under mpirun");
+        goto out;
+    }
     if (cli_mpi_ranks()) {
         /* started by mpirun: the build and the outputs spread over the ranks */
         rc = cli_mpi_build(&job, quiet);
@@ -379,6 +401,14 @@ int cmd_build(int argc, char **argv)
         fprintf(stderr, "ivoct build: %s\n", err.msg);
         rc = EXIT_RUNTIME;
         goto out;
+    }
+    if (certain) {
+        if (oct_certify(tree, s.tape, (int)threads, &err)) {
+            fprintf(stderr, "ivoct build: %s\n", err.msg);
+            oct_free(tree);
+            rc = EXIT_RUNTIME;
+            goto out;
+        }
     }
     /* every output goes to a temporary name; all are renamed at the end, and
      * only when all were written (the commit group) */
@@ -400,6 +430,11 @@ int cmd_build(int argc, char **argv)
                s.source.name, tree->depth, oct_tests_format(tree->tests, names, sizeof names),
                tree->n_leaves, (unsigned long long)tree->stats.cells_visited,
                tree->stats.time_s, tree->stats.threads, tree->stats.threads > 1 ? "s" : "");
+        if (tree->certain)
+            printf("certain: %llu of %u surface leaves (%.1f%%), %.3f s\n",
+                   (unsigned long long)tree->stats.leaves_certain, tree->n_leaves,
+                   tree->n_leaves ? 100.0 * (double)tree->stats.leaves_certain / tree->n_leaves : 0.0,
+                   tree->stats.certain_time_s);
     }
     oct_free(tree);
 out:

@@ -50,6 +50,10 @@ static int info_ivo(const char *path)
         if (by_depth[d])
             printf(" %d:%llu", d, (unsigned long long)by_depth[d]);
     printf("\n");
+    if (t->certain)
+        printf("certain:  %llu of %u leaves (%.1f%%; built with --certain)\n",
+               (unsigned long long)t->stats.leaves_certain, t->n_leaves,
+               t->n_leaves ? 100.0 * (double)t->stats.leaves_certain / t->n_leaves : 0.0);
     oct_free(t);
     oct_source_free(&src);
     return EXIT_OK;

@@ -26,12 +26,21 @@
 namespace ivexp {
 namespace {
 
-const char HEADER[] = "x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi,nx,ny,nz,d_lo,d_hi,error_bound\n";
+const char HEADER[] = "x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi,nx,ny,nz,d_lo,d_hi,error_bound";
+// appended when the tree has its certain leaves (oct_certify)
+const char HEADER_CERTAIN[] = ",certain,wx0,wy0,wz0,wx1,wy1,wz1";
 
 // %.17g of a double: at most 24 characters ("-1.2345678901234567e-308")
 constexpr size_t NUM_MAX = 32;
 // 14 numbers, a depth of 2 digits, 14 commas and the newline
 constexpr size_t ROW_MAX = 14 * NUM_MAX + 2 + 15;
+// the certain columns: a flag, 6 numbers and 7 commas
+constexpr size_t ROW_CERTAIN = 6 * NUM_MAX + 1 + 7;
+
+inline size_t row_max(const oct_tree_t *t)
+{
+    return t->certain ? ROW_MAX + ROW_CERTAIN : ROW_MAX;
+}
 // leaves per block: ~1 MB of text per write, 1.9 MB of buffer per slot
 constexpr size_t BLOCK = 4096;
 // tables of the bounds up to this depth (3 x 2^16 numbers: ~10 ms)
@@ -91,7 +100,32 @@ struct Formatter {
                 axes.emplace_back(t->box[2 * a], t->box[2 * a + 1], t->depth);
     }
 
-    // rows [first, last) into p (room for ROW_MAX a row); returns the end
+    // ",certain,wx0,wy0,wz0,wx1,wy1,wz1" of leaf i: 1 and the witness points
+    // (the second empty for a zero), or 0 and six empty fields
+    char *certain_columns(char *p, uint32_t i) const
+    {
+        const oct_witness_t w = oct_witness_decode(t->certain[i]);
+        if (w.kind == OCT_WITNESS_NONE) {
+            std::memcpy(p, ",0,,,,,,", 8);
+            return p + 8;
+        }
+        std::memcpy(p, ",1", 2);
+        p += 2;
+        const iv_box_t b = oct_leaf_box(t, &t->leaves[i]);
+        for (int k : {w.k0, w.k1}) {
+            double q[3];
+            if (k >= 0)
+                oct_leaf_sample(&b, k, q);
+            for (int a = 0; a < 3; a++) {
+                *p++ = ',';
+                if (k >= 0)
+                    p = put_double(p, q[a]);
+            }
+        }
+        return p;
+    }
+
+    // rows [first, last) into p (room for row_max a row); returns the end
     char *rows(char *p, uint32_t first, uint32_t last) const
     {
         const int D = t->depth;
@@ -134,6 +168,8 @@ struct Formatter {
                 p += 5;
             }
             p = put_double(p, oct_leaf_error_bound(t, i));
+            if (t->certain)
+                p = certain_columns(p, i);
             *p++ = '\n';
         }
         return p;
@@ -163,7 +199,7 @@ public:
           slots_(ring_), ready_(ring_, SIZE_MAX), length_(ring_, 0)
     {
         for (auto &s : slots_)
-            s.resize(BLOCK * ROW_MAX);
+            s.resize(BLOCK * row_max(fmt.t));
         for (int w = 0; w < workers; w++)
             threads_.emplace_back([this] { work(); });
     }
@@ -264,19 +300,22 @@ size_t cells_memory(const oct_tree_t *tree, int threads)
     const size_t entries = ((size_t)1 << std::min(tree->depth, TABLE_DEPTH)) + 1;
     size_t tables = Formatter::tabled(tree) ? 3 * (entries * (NUM_MAX + 1) + (entries + 1) * 4) : 0;
     if (workers <= 1)
-        return tables + std::min<size_t>(n, BLOCK) * ROW_MAX;
-    return tables + ring_slots(n_blocks, workers) * BLOCK * ROW_MAX;
+        return tables + std::min<size_t>(n, BLOCK) * row_max(tree);
+    return tables + ring_slots(n_blocks, workers) * BLOCK * row_max(tree);
 }
 
 void write_cells(const oct_tree_t *tree, const char *path, int threads)
 {
     Output out(path);
     out.write(HEADER, sizeof HEADER - 1);
+    if (tree->certain)
+        out.write(HEADER_CERTAIN, sizeof HEADER_CERTAIN - 1);
+    out.write("\n", 1);
     const size_t n = tree->n_leaves, n_blocks = (n + BLOCK - 1) / BLOCK;
     Formatter fmt(tree);
     const int workers = thread_count(threads, n_blocks);
     if (workers <= 1) {
-        std::vector<char> buf(std::min<size_t>(n, BLOCK) * ROW_MAX);
+        std::vector<char> buf(std::min<size_t>(n, BLOCK) * row_max(tree));
         for (size_t first = 0; first < n; first += BLOCK) {
             size_t last = std::min(n, first + BLOCK);
             char *end = fmt.rows(buf.data(), (uint32_t)first, (uint32_t)last);

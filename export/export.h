@@ -42,7 +42,11 @@ extern "C" {
  * doubles of oct_coord), depth, enclosure of f, ILIE slab (five empty fields
  * where the leaf has none) and oct_leaf_error_bound.  Numbers as printf's
  * %.17g writes them (17 significant digits: they read back to the same
- * doubles).  Rows are formatted by `threads` threads (<= 0: one per core);
+ * doubles).  When tree->certain is set (oct_certify), the header and every
+ * row go on with ,certain,wx0,wy0,wz0,wx1,wy1,wz1: 1 and the witness points
+ * of the leaf's code (oct_leaf_sample of the leaf's box: f < 0 at w0 and
+ * f > 0 at w1, or f = 0 at w0 with the w1 fields empty), or 0 and six empty
+ * fields.  Rows are formatted by `threads` threads (<= 0: one per core);
  * the file is the same for any count. */
 int exp_cells(const oct_tree_t *tree, const char *path, int threads, ivoct_error_t *err);
 /* The bytes of buffers exp_cells(tree, ..., threads, ...) allocates (its
@@ -56,6 +60,7 @@ size_t exp_cells_memory(const oct_tree_t *tree, int threads);
  *   depth (Int32), f_lo, f_hi, error_bound (Float64: oct_leaf_error_bound),
  *   normal (3 x Float64, the slab's unit normal, 0 0 0 for a leaf without one;
  *           only when the tree has slabs),
+ *   certain (UInt8, 1 where the leaf's code is not 0; only when tree->certain),
  * field data scene, f, lets (strings), box (6 doubles), depth (Int32). */
 int exp_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *path,
             ivoct_error_t *err);
@@ -83,6 +88,8 @@ int exp_cells_index(const char *path, const char *const *sources, const uint64_t
  *            leaf below, else 0),
  *   class (Int8: 0 inside, 1 outside, 2 undefined (empty leaves, oct_class_t),
  *          3 surface leaf, 4 split),
+ *   certain (UInt8: 1 on the surface leaves whose code is not 0, 0 on every
+ *            other cell; only when tree->certain),
  * and the field data of the .vtu.  Written in VTK's binary (not appended) mode:
  * VTK 9.1's appended mode writes .htg files it cannot read back. */
 int exp_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,

@@ -396,6 +396,16 @@ void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *
     cd->AddArray(f_lo);
     cd->AddArray(f_hi);
     cd->AddArray(error_bound);
+    if (tree->certain) {
+        // 1 where the leaf surely holds surface (oct_certify)
+        vtkNew<vtkUnsignedCharArray> certain;
+        certain->SetName("certain");
+        certain->SetNumberOfTuples((vtkIdType)n);
+        unsigned char *c = certain->GetPointer(0);
+        for (size_t i = 0; i < n; i++)
+            c[i] = tree->certain[i] != 0;
+        cd->AddArray(certain);
+    }
     if (tree->slabs) {
         vtkNew<vtkDoubleArray> normal;
         normal->SetName("normal");
@@ -512,6 +522,11 @@ void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_
     vtkNew<vtkDoubleArray> f_center, f_lo, f_hi;
     vtkNew<vtkUnsignedCharArray> surf;
     vtkNew<vtkSignedCharArray> cls;
+    vtkNew<vtkUnsignedCharArray> certain;  // with oct_certify: 1 on the certain leaves
+    if (tree->certain) {
+        certain->SetName("certain");
+        certain->SetNumberOfTuples((vtkIdType)total);
+    }
     depth->SetName("depth");
     f_center->SetName("f_center");
     f_lo->SetName("f_lo");
@@ -529,6 +544,7 @@ void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_
         double *fc = f_center->GetPointer(0), *lo = f_lo->GetPointer(0), *hi = f_hi->GetPointer(0);
         unsigned char *surf_v = surf->GetPointer(0);
         signed char *cls_v = cls->GetPointer(0);
+        unsigned char *cert_v = tree->certain ? certain->GetPointer(0) : nullptr;
         const size_t chunk = 4096;
         const int threads = writer_threads(tree, (total + chunk - 1) / chunk);
         std::vector<std::unique_ptr<Workspace>> ws;
@@ -553,11 +569,13 @@ void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_
                 const oct_node_t node = tree->nodes[nodes[i].node];
                 double l = fr[k].lo, h = fr[k].hi;
                 signed char c;
+                unsigned char sure = 0;
                 switch (OCT_NODE_KIND(node)) {
                 case OCT_LEAF: {
                     const oct_leaf_t &leaf = tree->leaves[OCT_NODE_VALUE(node)];
                     l = leaf.f_lo, h = leaf.f_hi;
                     c = CLASS_SURFACE;
+                    sure = (unsigned char)oct_leaf_certain(tree, OCT_NODE_VALUE(node));
                     break;
                 }
                 case OCT_INTERIOR:
@@ -572,6 +590,8 @@ void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_
                 hi[i] = h;
                 surf_v[i] = surface[i];
                 cls_v[i] = c;
+                if (cert_v)
+                    cert_v[i] = sure;
             }
         });
     }
@@ -582,6 +602,8 @@ void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_
     cd->AddArray(f_hi);
     cd->AddArray(surf);
     cd->AddArray(cls);
+    if (tree->certain)
+        cd->AddArray(certain);
     add_field_data(htg->GetFieldData(), tree, src);
 
     vtkNew<vtkXMLHyperTreeGridWriter> w;

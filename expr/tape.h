@@ -212,6 +212,39 @@ int tape_has_choices(const tape_t *t);
  * t->n words. */
 int tape_is_single_use(const tape_t *t, uint32_t *scratch);
 
+/* ---- continuity over a box ----------------------------------------------------
+ * What an argument that needs f continuous on a box (the intermediate value
+ * theorem, the semantic extensions of modal/) checks first. */
+typedef enum tape_domain {
+    TAPE_DOMAIN_CONTINUOUS = 0, /* f is defined and continuous on the whole box */
+    TAPE_DOMAIN_NOT_PROVED,     /* an operand may leave its operation's domain of
+                                 * continuity, or an unknown op (nothing claimed) */
+    TAPE_DOMAIN_OVERFLOW        /* an enclosure had a non-finite bound (nothing claimed) */
+} tape_domain_t;
+
+/* Is the function of t defined and continuous at every point of the closed
+ * box?  An ordinary interval evaluation of each clause over the box, checked
+ * against the domain where its operation is continuous: division by an
+ * enclosure that excludes 0, sqrt and powr (r > 0) of one >= 0, log and powr
+ * (r < 0) of one > 0, negative integer powers of one that excludes 0, tan
+ * without a pole; +, -, *, neg, sqr, nonnegative powers, exp, sin, cos,
+ * atan, abs, min and max are continuous everywhere.  TAPE_DOMAIN_CONTINUOUS
+ * is a proof (the enclosures are rigorous); the other results claim nothing.
+ * slots: t->n intervals, left holding each clause's enclosure over the box
+ * when the result is TAPE_DOMAIN_CONTINUOUS.  smooth (may be NULL): on
+ * TAPE_DOMAIN_CONTINUOUS, 1 when f is moreover C^1 on a neighbourhood of the
+ * box (sqrt and powr operands bounded away from 0, abs operands and min/max
+ * branches of one sign or order over the box), so that the interval gradient
+ * of tape_eval_grad bounds every derivative.  No allocation. */
+tape_domain_t tape_check_continuous(const tape_t *t, const iv_box_t *box, iv_t *slots,
+                                    int *smooth);
+
+/* Is every operation of t defined and continuous on the whole of R^3 (no
+ * division, sqrt, log, powr, negative power or tan; finite constants)?  Then
+ * f is continuous on every box, and so is any tape pruned from t over a box
+ * (it equals f there). */
+int tape_is_total(const tape_t *t);
+
 /* Number of operands of an op (0, 1 or 2). */
 int tape_op_arity(tape_op_t op);
 

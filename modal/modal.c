@@ -475,73 +475,8 @@ mod_status_t mod_tape_eval(const tape_t *t, const mod_t X[3], mod_round_t r, mod
     return st;
 }
 
-/* The ordinary interval evaluation over the box Set(X), clause by clause: is f
- * defined and continuous on the whole box (every operand inside its
- * operation's domain of continuity, sin/cos/tan where the modal extension
- * will be asked for them is checked there)?  *smooth: moreover C^1 on a
- * neighbourhood of the box (sqrt, log, powr operands bounded away from 0),
- * so that the interval gradient proves monotonicity. */
-static mod_status_t check_domain(const tape_t *t, const iv_box_t *box, iv_t *S, bool *smooth)
-{
-    *smooth = true;
-    for (uint32_t i = 0; i < t->n; i++) {
-        const tape_clause_t *c = &t->clauses[i];
-        iv_t a = arity(c->op) >= 1 ? S[c->a] : iv_empty();
-        iv_t b = arity(c->op) == 2 ? S[c->b] : iv_empty();
-        iv_t v;
-        bool ok = true;
-        switch ((tape_op_t)c->op) {
-        case TAPE_CONST: v = c->c; break;
-        case TAPE_X: v = box->x; break;
-        case TAPE_Y: v = box->y; break;
-        case TAPE_Z: v = box->z; break;
-        case TAPE_NEG: v = iv_neg(a); break;
-        case TAPE_SQR: v = iv_sqr(a); break;
-        case TAPE_POWI: {
-            int n = (int)c->c.lo;
-            ok = n >= 0 || a.lo > 0 || a.hi < 0;
-            v = iv_powi(a, n);
-            break;
-        }
-        case TAPE_POWR:
-            ok = c->c.lo > 0 ? a.lo >= 0 : a.lo > 0;
-            *smooth = *smooth && a.lo > 0;
-            v = iv_powr(a, c->c.lo);
-            break;
-        case TAPE_SQRT:
-            ok = a.lo >= 0;
-            *smooth = *smooth && a.lo > 0;
-            v = iv_sqrt(a);
-            break;
-        case TAPE_EXP: v = iv_exp(a); break;
-        case TAPE_LOG:
-            ok = a.lo > 0;
-            v = iv_log(a);
-            break;
-        case TAPE_SIN: v = iv_sin(a); break;
-        case TAPE_COS: v = iv_cos(a); break;
-        case TAPE_TAN:
-            v = iv_tan(a);
-            ok = isfinite(v.lo) && isfinite(v.hi); /* no pole in a */
-            break;
-        case TAPE_ATAN: v = iv_atan(a); break;
-        case TAPE_ADD: v = iv_add(a, b); break;
-        case TAPE_SUB: v = iv_sub(a, b); break;
-        case TAPE_MUL: v = iv_mul(a, b); break;
-        case TAPE_DIV:
-            ok = b.lo > 0 || b.hi < 0;
-            v = iv_div(a, b);
-            break;
-        default: return MOD_UNSUPPORTED;
-        }
-        if (!ok || iv_is_empty(v))
-            return MOD_DOMAIN;
-        if (!isfinite(v.lo) || !isfinite(v.hi))
-            return MOD_OVERFLOW;
-        S[i] = v;
-    }
-    return MOD_OK;
-}
+/* f defined and continuous on the box Set(X), and whether C^1 there (so the
+ * interval gradient proves monotonicity), is tape_check_continuous (expr/). */
 
 /* The common driver of mod_star (want_improper = false, outer rounding) and
  * mod_dstar (want_improper = true, inner rounding); dualise: make blocking
@@ -573,10 +508,15 @@ static mod_status_t extension(const tape_t *t, const mod_t Xin[3], bool want_imp
         goto done;
     if (mod_incidences(t, info->incidence) != 0)
         goto done;
-    bool smooth;
-    st = check_domain(t, &box, S, &smooth);
+    int smooth_i;
+    switch (tape_check_continuous(t, &box, S, &smooth_i)) {
+    case TAPE_DOMAIN_CONTINUOUS: st = MOD_OK; break;
+    case TAPE_DOMAIN_OVERFLOW: st = MOD_OVERFLOW; break;
+    default: st = MOD_DOMAIN; break;
+    }
     if (st != MOD_OK)
         goto done;
+    bool smooth = smooth_i != 0;
 
     bool need_grad = false;
     for (int k = 0; k < 3; k++)

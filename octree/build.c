@@ -472,6 +472,8 @@ void oct_stats_add(oct_stats_t *to, const oct_stats_t *from)
     to->decided_refine += from->decided_refine;
     to->decided_max_depth += from->decided_max_depth;
     to->tape_clauses_evaluated += from->tape_clauses_evaluated;
+    to->leaves_certain += from->leaves_certain;
+    to->certain_time_s += from->certain_time_s;
     for (int d = 0; d <= OCT_MAX_DEPTH; d++) {
         to->leaves_by_depth[d] += from->leaves_by_depth[d];
         to->cells_by_depth[d] += from->cells_by_depth[d];
@@ -830,5 +832,6 @@ void oct_free(oct_tree_t *tree)
     free(tree->nodes);
     free(tree->leaves);
     free(tree->slabs);
+    free(tree->certain);
     free(tree);
 }

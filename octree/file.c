@@ -1,7 +1,8 @@
 /* ivoct — the native octree file (.ivo).
  *
  * Layout, all integers little-endian, doubles as their IEEE bits:
- *   "IVOCTREE"  u32 version (3; oct_load also reads 2, without the parametrization)
+ *   "IVOCTREE"  u32 version (4 with certain leaves, else 3; oct_load also reads
+ *               2, without the parametrization)
  *   u32 depth  u32 tests  f64 refine  u32 has_slabs  f64 box[6]
  *   str name  u32 n_lets  (str let_name  str let_text) * n_lets  str f
  *   str param_x  str param_y  str param_z  f64 patch[4]   (version 3; "" for an
@@ -10,6 +11,7 @@
  *   u32 node * n_nodes
  *   (u64 code  f64 f_lo  f64 f_hi  u8 depth) * n_leaves
  *   when has_slabs: (f64 n[3]  f64 d_lo  f64 d_hi  f64 thickness) * n_leaves
+ *   version 4: u8 certain * n_leaves   (oct_witness_decode codes)
  *   u64 checksum: FNV-1a of every byte before it
  * where str = u32 length + bytes.  The reader checks every length against the
  * file size before using it, the checksum, and the tree's structure, so a
@@ -23,7 +25,8 @@
 #include "octree.h"
 
 #define MAGIC "IVOCTREE"
-#define VERSION 3u
+#define VERSION 3u         /* without certain leaves: what readers of 3 read */
+#define VERSION_CERTAIN 4u /* version 3 followed by the certain codes */
 #define MAX_FILE ((size_t)1 << 36)
 
 /* ---- writing through a buffer ----------------------------------------------------
@@ -131,7 +134,7 @@ int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
     }
     b.f = f.f;
     put(&b, MAGIC, 8);
-    put_u32(&b, VERSION);
+    put_u32(&b, tree->certain ? VERSION_CERTAIN : VERSION);
     put_u32(&b, (uint32_t)tree->depth);
     put_u32(&b, tree->tests);
     put_f64(&b, tree->refine);
@@ -189,6 +192,8 @@ int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
             put_f64(&b, sl->thickness);
         }
     }
+    if (tree->certain)
+        put(&b, tree->certain, tree->n_leaves);
     flush(&b);
     uint64_t sum = b.hash;
     put_u64(&b, sum);
@@ -411,7 +416,7 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
     r.n = n - 8; /* the checksum is not payload */
     r.at = 8;
     uint32_t version = get_u32(&r);
-    if (version != VERSION && version != 2) {
+    if (version != VERSION && version != VERSION_CERTAIN && version != 2) {
         why = "unsupported version";
         goto fail;
     }
@@ -460,7 +465,9 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
     t->n_leaves = get_u32(&r);
     if (r.bad || t->depth < 0 || t->depth > OCT_MAX_DEPTH ||
         has_slabs > 1 || !(t->refine >= 0) ||
-        (uint64_t)t->n_nodes * 4 + (uint64_t)t->n_leaves * (25 + 48 * has_slabs) != r.n - r.at) {
+        (uint64_t)t->n_nodes * 4 +
+                (uint64_t)t->n_leaves * (25 + 48 * has_slabs + (version == VERSION_CERTAIN)) !=
+            r.n - r.at) {
         why = "bad header or truncated tree";
         goto fail;
     }
@@ -496,6 +503,23 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
             sl->d_lo = get_f64(&r);
             sl->d_hi = get_f64(&r);
             sl->thickness = get_f64(&r);
+        }
+    }
+    if (version == VERSION_CERTAIN) {
+        t->certain = malloc((size_t)t->n_leaves + 1);
+        const unsigned char *c = take(&r, t->n_leaves);
+        if (!t->certain) {
+            why = "out of memory";
+            goto fail;
+        }
+        for (uint32_t i = 0; c && i < t->n_leaves; i++) {
+            oct_witness_t w = oct_witness_decode(c[i]);
+            if (c[i] && w.kind == OCT_WITNESS_NONE) {
+                why = "bad certain leaf code";
+                goto fail;
+            }
+            t->certain[i] = c[i];
+            t->stats.leaves_certain += c[i] != 0;
         }
     }
     if (r.bad) {

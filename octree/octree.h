@@ -127,6 +127,8 @@ typedef struct oct_stats {
     uint64_t split_by_depth[OCT_MAX_DEPTH + 1];
     uint64_t tape_clauses_evaluated; /* clauses x cells, over every evaluation */
     double max_error_bound;          /* largest certified error bound of a leaf */
+    uint64_t leaves_certain;         /* leaves that surely hold surface (oct_certify) */
+    double certain_time_s;           /* wall time of oct_certify (not in time_s) */
     double time_s;
     size_t peak_bytes;               /* octree storage and build scratch */
     int threads;
@@ -142,6 +144,8 @@ typedef struct oct_tree {
     uint32_t n_leaves;
     oct_slab_t *slabs;  /* n_leaves entries when the build ran the ilie test without
                            slabs_unused, else NULL */
+    uint8_t *certain;   /* n_leaves witness codes after oct_certify (0: not certain;
+                           see oct_witness_decode), else NULL */
     double refine;
     oct_stats_t stats;
 } oct_tree_t;
@@ -243,6 +247,64 @@ int oct_leaf_has_slab(const oct_tree_t *tree, uint32_t i);
  * thinner than `refine`), else from any point of the leaf (its diagonal).
  * Rounded up. */
 double oct_leaf_error_bound(const oct_tree_t *tree, uint32_t i);
+
+/* ---- leaves that surely hold surface (certain.c) --------------------------------
+ * A surface leaf only may hold surface.  oct_certify proves, for as many
+ * leaves as it can, that the leaf surely holds a point where f = 0:
+ *  - f is proved defined and continuous on the whole (closed, connected) leaf
+ *    (tape_check_continuous, or tape_is_total for the tape), and
+ *  - two sample points of the leaf have certified opposite signs (a rigorous
+ *    interval evaluation at the point: an enclosure that excludes 0), so f
+ *    has a zero between them by the intermediate value theorem; or
+ *  - one sample point has a certified zero (its enclosure is [0, 0]).
+ * (The modal inner estimate of the range, mod_inner_range, is not used: on
+ * leaves this small it certified no leaf the samples missed, at twice the
+ * cost; octree/README.md.)
+ * The witness is kept as one byte per leaf: the sample points are a fixed set
+ * of OCT_SAMPLES points of the leaf (oct_leaf_sample), so a witness is one or
+ * two indices into that set, and its coordinates are recomputed from the
+ * leaf when written.  The result depends only on each leaf and the tape:
+ * the same for any thread count and any SIMD path. */
+
+/* 8 corners (k = 0..7: bit 0 x, bit 1 y, bit 2 z at the upper end), the
+ * centre (8), the face centres (9..14: -x, +x, -y, +y, -z, +z). */
+#define OCT_SAMPLES 15
+
+/* Sample point k (0 <= k < OCT_SAMPLES) of a box: each coordinate is the
+ * box's lower bound, upper bound, or its midpoint lo + (hi - lo) / 2 rounded
+ * to nearest and clamped to [lo, hi]; so every sample lies in the box, and
+ * the same box gives the same doubles. */
+void oct_leaf_sample(const iv_box_t *box, int k, double p[3]);
+
+typedef enum oct_witness_kind {
+    OCT_WITNESS_NONE = 0,  /* not certain */
+    OCT_WITNESS_ZERO,      /* f(sample k0) is certified 0 */
+    OCT_WITNESS_SIGNS      /* f(sample k0) < 0 < f(sample k1), certified */
+} oct_witness_kind_t;
+
+typedef struct oct_witness {
+    oct_witness_kind_t kind;
+    int k0, k1; /* sample indices; -1 where the kind has none */
+} oct_witness_t;
+
+/* The witness a code names (0 is OCT_WITNESS_NONE; codes are
+ * 1 + k0 for ZERO, 16 + 14 k0 + (k1 < k0 ? k1 : k1 - 1) for SIGNS; the
+ * codes 226..255 are unused and read as NONE). */
+oct_witness_t oct_witness_decode(uint8_t code);
+/* The code of a witness (the inverse of oct_witness_decode on valid ones;
+ * 0 for anything else). */
+uint8_t oct_witness_encode(oct_witness_t w);
+
+/* Does leaf i surely hold surface (tree->certain set and its code not 0)? */
+int oct_leaf_certain(const oct_tree_t *tree, uint32_t i);
+
+/* Fill tree->certain (replacing any earlier array) for the tape t the tree
+ * was built from, on `threads` threads (<= 0: all cores), and set
+ * stats.leaves_certain and stats.certain_time_s.  A leaf's code is not 0
+ * only when the argument above proves it holds a zero of f (of the exact
+ * function of t: the enclosures are rigorous).  Errors: out of memory, a NULL
+ * argument; then the tree is left as it was. */
+int oct_certify(oct_tree_t *tree, const tape_t *t, int threads, ivoct_error_t *err);
 
 /* ---- a pruned tape per leaf ---------------------------------------------------
  * For evaluations confined to one leaf (ray casting: the root finders search a

@@ -90,8 +90,11 @@ def read_ivo(path):
     t["leaves"] = leaves
     t["slabs"] = (np.frombuffer(r.take(48 * n_leaves), dtype="<f8").reshape(-1, 6)
                   if has_slabs else None)
+    # version 4: one witness code per leaf (octree/README.md)
+    t["certain"] = (np.frombuffer(r.take(n_leaves), dtype="u1")
+                    if t["version"] == 4 else None)
     check(r.at == len(r.d), "ivo: %d bytes after the tree" % (len(r.d) - r.at))
-    check(t["version"] in (2, 3), "ivo: version %d" % t["version"])
+    check(t["version"] in (2, 3, 4), "ivo: version %d" % t["version"])
     return t
 
 
@@ -142,11 +145,43 @@ def rounded_up(x, ref):
     return math.nextafter(ref, -math.inf) <= x <= ref * (1 + 4e-15)
 
 
+def witness(code):
+    """(k0, k1) sample indices of a witness code, from the documented layout:
+    0 none, 1 + k a zero at sample k, 16 + 14 k0 + (k1 if k1 < k0 else k1 - 1)
+    a negative sample k0 and a positive k1."""
+    if 1 <= code <= 15:
+        return code - 1, None
+    if 16 <= code < 16 + 210:
+        k0, r = divmod(code - 16, 14)
+        return k0, (r if r < k0 else r + 1)
+    return None, None
+
+
+def sample(b, k):
+    """Sample k of the bounds b (x0 x1 y0 y1 z0 z1): the 8 corners (bit a of k
+    the upper end of axis a), the centre (8), the face centres (9..14)."""
+    if k < 8:
+        t = [2 if k >> a & 1 else 0 for a in range(3)]
+    else:
+        t = [1, 1, 1]
+        if k > 8:
+            t[(k - 9) // 2] = 2 if (k - 9) & 1 else 0
+    p = []
+    for a in range(3):
+        lo, hi = b[2 * a], b[2 * a + 1]
+        m = min(max(lo + (hi - lo) * 0.5, lo), hi)
+        p.append(lo if t[a] == 0 else hi if t[a] == 2 else m)
+    return p
+
+
 def check_cells(path, t, bounds):
     rows = list(csv.reader(open(path, newline="")))
-    check(rows and rows[0] == ["x0", "x1", "y0", "y1", "z0", "z1", "depth", "f_lo", "f_hi",
-                               "nx", "ny", "nz", "d_lo", "d_hi", "error_bound"],
-          "csv: header %r" % (rows[:1],))
+    certain = t["certain"]
+    header = ["x0", "x1", "y0", "y1", "z0", "z1", "depth", "f_lo", "f_hi",
+              "nx", "ny", "nz", "d_lo", "d_hi", "error_bound"]
+    if certain is not None:
+        header += ["certain", "wx0", "wy0", "wz0", "wx1", "wy1", "wz1"]
+    check(rows and rows[0] == header, "csv: header %r" % (rows[:1],))
     body = rows[1:]
     leaves, slabs = t["leaves"], t["slabs"]
     if not check(len(body) == len(leaves), "csv: %d rows, the tree has %d leaves"
@@ -156,7 +191,19 @@ def check_cells(path, t, bounds):
     bad = []
     for k, r in enumerate(body):
         l = leaves[k]
-        ok = len(r) == 15 and all(same(float(r[a]), bounds[k, a]) for a in range(6))
+        ok = len(r) == len(header) and all(same(float(r[a]), bounds[k, a]) for a in range(6))
+        if ok and certain is not None:
+            k0, k1 = witness(int(certain[k]))
+            want = ["0" if k0 is None else "1"]
+            for kk in (k0, k1):
+                want += [""] * 3 if kk is None else [None] * 3
+            ok = r[15] == want[0]
+            for j, kk in enumerate((k0, k1)):
+                if kk is None:
+                    ok = ok and r[16 + 3 * j:19 + 3 * j] == ["", "", ""]
+                else:
+                    q = sample(bounds[k], kk)
+                    ok = ok and all(same(float(r[16 + 3 * j + a]), q[a]) for a in range(3))
         ok = ok and r[6] == str(int(l["depth"]))
         ok = ok and same(float(r[7]), float(l["f_lo"])) and same(float(r[8]), float(l["f_hi"]))
         has = slabs is not None and bool(np.any(slabs[k, :3] != 0))
@@ -208,6 +255,13 @@ def check_vtu(path, t, bounds, eb):
             got = vtk_to_numpy(a)
             check(got.tobytes() == np.ascontiguousarray(want, dtype=got.dtype).tobytes(),
                   "vtu: %s differs from the tree" % name)
+    a = cd.GetArray("certain")
+    if t["certain"] is not None:
+        if check(a is not None, "vtu: no certain array (the tree has certain leaves)"):
+            check(np.array_equal(vtk_to_numpy(a), (t["certain"] != 0).astype(np.uint8)),
+                  "vtu: certain differs from the tree")
+    else:
+        check(a is None, "vtu: a certain array without certain leaves")
     a = cd.GetArray("normal")
     if t["slabs"] is not None:
         if check(a is not None, "vtu: no normal array (the tree has slabs)"):
@@ -265,6 +319,16 @@ def check_htg(path, t, bounds):
     check(np.allclose(hb[oh], bounds[ot], rtol=0, atol=1e-12 * scale), "htg: leaf bounds differ")
     check(np.array_equal(flo[g[oh]], lv["f_lo"][ot]) and np.array_equal(fhi[g[oh]], lv["f_hi"][ot]),
           "htg: f_lo / f_hi of the surface leaves differ from the tree's")
+    a = cd.GetArray("certain")
+    if t["certain"] is not None:
+        if check(a is not None, "htg: no certain array (the tree has certain leaves)"):
+            c = vtk_to_numpy(a)
+            check(np.array_equal(c[g[oh]], (t["certain"][ot] != 0).astype(np.uint8)),
+                  "htg: certain of the surface leaves differs from the tree's")
+            check(int(c.sum()) == int(np.count_nonzero(t["certain"])),
+                  "htg: certain set on cells that are not certain leaves")
+    else:
+        check(a is None, "htg: a certain array without certain leaves")
 
 
 def main():

@@ -283,7 +283,9 @@ typedef struct layout {
     uint32_t nn, nl, has_slabs;
 } layout_t;
 
-#define FILE_VERSION 3 /* octree/file.c */
+#define FILE_VERSION 3 /* octree/file.c, a tree without certain leaves */
+#define FILE_VERSION_NEXT 5 /* the first version oct_load does not know (4 is 3 with
+                               the certain leaves' codes) */
 #define OFF_VERSION 8
 #define OFF_DEPTH 12
 #define OFF_REFINE 20
@@ -655,7 +657,9 @@ static uint32_t find_node(const unsigned char *p, const layout_t *L, uint32_t ki
     return 0;
 }
 
-static void m_version(unsigned char *p, const layout_t *L) { (void)L; put_u32(p + OFF_VERSION, FILE_VERSION + 1); }
+static void m_version(unsigned char *p, const layout_t *L) { (void)L; put_u32(p + OFF_VERSION, FILE_VERSION_NEXT); }
+/* a version 3 file read as version 4: one code byte per leaf is missing */
+static void m_version_certain(unsigned char *p, const layout_t *L) { (void)L; put_u32(p + OFF_VERSION, 4); }
 static void m_depth_big(unsigned char *p, const layout_t *L) { (void)L; put_u32(p + OFF_DEPTH, OCT_MAX_DEPTH + 1); }
 static void m_depth_neg(unsigned char *p, const layout_t *L) { (void)L; put_u32(p + OFF_DEPTH, 0x80000000u); }
 static void m_depth_less(unsigned char *p, const layout_t *L) { put_u32(p + OFF_DEPTH, get_u32(p + L->depth) - 1); }
@@ -743,6 +747,7 @@ static void test_resigned_targeted(void **state)
         const char *why; /* what oct_load must say (octree/file.c) */
     } cases[] = {
         {"next version", m_version, "unsupported version"},
+        {"version 4 without the certain codes", m_version_certain, BAD_HEADER},
         {"depth 22", m_depth_big, BAD_HEADER},
         {"depth 2^31", m_depth_neg, BAD_HEADER},
         {"depth one less than the tree's", m_depth_less, "bad child index"},

@@ -269,12 +269,15 @@ rm -f "$TMP/o"/*
 # ---- the progress bar leaves the terminal clean ---------------------------------------------
 # On a terminal (script's pseudo-terminal) the bar shows once the build has lasted a
 # second; SIGTERM then: the message starts a line of its own, the bar's line is ended.
+# The build must last well over a second on a fast machine (depth 10 on one thread: a
+# few seconds; it is ended as soon as the bar shows).
 if command -v script >/dev/null && command -v pgrep >/dev/null; then
-    script -qfc "exec '$BIN' build '$SCENE' --depth 9 --cells '$O.csv'" "$TMP/tty.log" \
-        >/dev/null 2>&1 &
+    script -qfc "exec '$BIN' build '$SCENE' --depth 10 --threads 1 --cells '$O.csv'" \
+        "$TMP/tty.log" >/dev/null 2>&1 &
     SPID=$!
     for ((i = 0; i < 3000; i++)); do
         grep -qF "building [" "$TMP/tty.log" 2>/dev/null && break
+        kill -0 "$SPID" 2>/dev/null || break
         sleep 0.1
     done
     kill -TERM "$(pgrep -P "$SPID")"

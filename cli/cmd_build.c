@@ -181,7 +181,8 @@ static int write_save(const scene_t *s, const oct_tree_t *t, io_group_t *g, cons
 static double tree_bytes(const oct_tree_t *t)
 {
     return (double)t->n_nodes * sizeof *t->nodes + (double)t->n_leaves * sizeof *t->leaves +
-           (t->slabs ? (double)t->n_leaves * sizeof *t->slabs : 0.0);
+           (t->slabs ? (double)t->n_leaves * sizeof *t->slabs : 0.0) +
+           (t->certain ? (double)t->n_leaves * sizeof *t->certain : 0.0);
 }
 
 /* What --vdb and --mesh fill: every surface leaf's voxels of the max depth. */

@@ -334,9 +334,9 @@ int cmd_build(int argc, char **argv)
                  "the format follows the name: .vtp, .ply or .obj"},
         {.name = "--certain", .kind = CLI_FLAG, .target = &certain,
          .help = "after the build, prove which surface leaves surely hold\n"
-                 "surface (a certified sign change or zero at sample points,\n"
-                 "or a modal inner estimate of the range; f continuous on the\n"
-                 "leaf) and keep a witness: adds the columns\n"
+                 "surface (f continuous on the leaf, and a certified sign\n"
+                 "change or zero at its sample points) and keep a witness:\n"
+                 "adds the columns\n"
                  "certain,wx0,wy0,wz0,wx1,wy1,wz1 to --cells, the cell array\n"
                  "certain to --vtu and --htg, the flags to --save and\n"
                  "leaves_certain to --stats (octree/README.md); not under mpirun"},

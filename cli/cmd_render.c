@@ -520,10 +520,13 @@ int cmd_render(int argc, char **argv)
     build_stats_extra_t mpi_stats = {NULL, NULL};
 #ifdef IVOCT_MPI
     if (ranks > 1) {
-        rc = cli_mpi_render_start(&mr, width, height, (int)frames, png || vti, (int)gathered, &err)
-                 ? EXIT_RUNTIME
-                 : EXIT_OK;
-        if ((rc = cli_mpi_agree(rc ? (fprintf(stderr, "ivoct render: %s\n", err.msg), rc) : rc)))
+        int started = cli_mpi_render_start(&mr, width, height, (int)frames, png || vti,
+                                           (int)gathered, &err)
+                          ? EXIT_RUNTIME
+                          : EXIT_OK;
+        if (started != EXIT_OK)
+            fprintf(stderr, "ivoct render: %s\n", err.msg);
+        if ((rc = cli_mpi_agree(started)))
             goto out;
         mpi_stats = (build_stats_extra_t){cli_mpi_render_stats, &mr};
     }

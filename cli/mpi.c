@@ -93,7 +93,6 @@ uint64_t cli_mpi_sum_u64(uint64_t v)
     return sum;
 }
 
-
 /* What this rank wrote on its stderr since the last report. */
 static char *captured_text(void)
 {

@@ -204,6 +204,21 @@ void limit_child_memory(const char *path)
 // starting it may hold the allocator's lock (ASan's does, in clang 14: the child hung in
 // malloc, about one `ivoct info` in thirty on a loaded machine).  So the fork waits, up
 // to a second, until every other thread of the process is asleep.
+// The fields of a /proc/.../stat file after the process's or thread's name (which
+// may hold spaces and parentheses: the last ')' ends it), into buf; NULL when the
+// file cannot be read (the process or thread has ended)
+const char *proc_stat_fields(const char *path, char *buf, size_t size)
+{
+    FILE *f = std::fopen(path, "r");
+    if (!f)
+        return nullptr;
+    size_t n = std::fread(buf, 1, size - 1, f);
+    std::fclose(f);
+    buf[n] = 0;
+    const char *end = std::strrchr(buf, ')');
+    return end ? end + 1 : nullptr;
+}
+
 bool other_threads_asleep()
 {
     DIR *dir = opendir("/proc/self/task");
@@ -217,14 +232,8 @@ bool other_threads_asleep()
             continue;
         char stat[512];
         std::string name = std::string("/proc/self/task/") + d->d_name + "/stat";
-        FILE *f = std::fopen(name.c_str(), "r");
-        if (!f)
-            continue;  // a thread that has ended
-        size_t n = std::fread(stat, 1, sizeof stat - 1, f);
-        std::fclose(f);
-        stat[n] = 0;
-        const char *state = std::strrchr(stat, ')');  // after the thread's name
-        if (state && state[1] == ' ' && state[2] != 'S') {
+        const char *state = proc_stat_fields(name.c_str(), stat, sizeof stat);
+        if (state && state[0] == ' ' && state[1] != 'S') {  // (a thread that ended: skipped)
             asleep = false;
             break;
         }
@@ -247,16 +256,10 @@ bool process_cpu(pid_t pid, unsigned long long *ticks, char *state)
 {
     char name[64], stat[1024];
     std::snprintf(name, sizeof name, "/proc/%ld/stat", (long)pid);
-    FILE *f = std::fopen(name, "r");
-    if (!f)
-        return false;
-    size_t n = std::fread(stat, 1, sizeof stat - 1, f);
-    std::fclose(f);
-    stat[n] = 0;
-    const char *p = std::strrchr(stat, ')');  // after the process's name
+    const char *p = proc_stat_fields(name, stat, sizeof stat);
     unsigned long long utime = 0, stime = 0;
-    if (!p || std::sscanf(p + 1, " %c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %llu %llu",
-                          state, &utime, &stime) != 3)
+    if (!p || std::sscanf(p, " %c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %llu %llu", state,
+                          &utime, &stime) != 3)
         return false;
     *ticks = utime + stime;
     return true;

@@ -20,11 +20,9 @@ double lip_magnitude(iv_t a) { return magnitude(a); }
  * points or hold only non-negative numbers, which leaves of each operation
  * the branch written out here (interval.h, interval.c); the tests compare
  * these with the interval operations (tests/test_lipschitz_mpfi.c). */
-static inline double sqr_up(double m) { return m == 0 ? 0.0 : iv_up(m * m); }
-
 static inline double norm3_up(double a, double b, double c)
 {
-    double s = iv_add_up(iv_add_up(sqr_up(a), sqr_up(b)), sqr_up(c));
+    double s = iv_add_up(iv_add_up(iv_sqr_hi(a), iv_sqr_hi(b)), iv_sqr_hi(c));
     return s != s ? s : s > 0 ? iv_up(sqrt(s)) : 0.0;
 }
 

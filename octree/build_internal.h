@@ -128,13 +128,10 @@ static inline double cell_diagonal_squared(const iv_box_t *b)
 {
     const iv_t *s = &b->x;
     double sq[3];
-    for (int a = 0; a < 3; a++) {
-        /* iv_sub's bounds; the lower one only matters when it is the larger in
-         * magnitude (iv_sqr), which a box (lo <= hi) never makes it */
-        double lo = iv_add_down(s[a].hi, -s[a].lo), hi = iv_add_up(s[a].hi, -s[a].lo);
-        double m = fabs(lo) > fabs(hi) ? fabs(lo) : fabs(hi);
-        sq[a] = m == 0 ? 0.0 : iv_up(m * m);
-    }
+    /* iv_sub(hi, lo)'s magnitude is its upper end: on a box (lo <= hi) the
+     * lower end lies in [-upper, upper] (both are hi - lo widened alike) */
+    for (int a = 0; a < 3; a++)
+        sq[a] = iv_sqr_hi(iv_add_up(s[a].hi, -s[a].lo));
     return iv_add_up(iv_add_up(sq[0], sq[1]), sq[2]);
 }
 

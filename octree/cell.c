@@ -85,7 +85,8 @@ static float float_outward(double x, uint32_t up)
 
 oct_leaf_t oct_leaf_make(uint64_t code, int depth, double f_lo, double f_hi)
 {
-    oct_leaf_t l = {(uint64_t)1 << (3 * depth) | code, float_outward(f_lo, 0), float_outward(f_hi, 1)};
+    oct_leaf_t l = {(uint64_t)1 << (3 * depth) | code, float_outward(f_lo, 0),
+                    float_outward(f_hi, 1)};
     return l;
 }
 

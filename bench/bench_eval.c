@@ -142,8 +142,6 @@ int main(int argc, char **argv)
             double u = (double)(seed >> 11) * 0x1p-53 * (1 - 1.0 / 64);
             b->T[i] = iv_make(u, u + 1.0 / 64);
         }
-        /* the affine evaluator has one path: measured once */
-        double af = measure(b, run_affine, seconds);
         char list[128];
         memcpy(list, paths, sizeof list);
         for (char *save = NULL, *p = strtok_r(list, " ", &save); p; p = strtok_r(NULL, " ", &save)) {
@@ -153,6 +151,7 @@ int main(int argc, char **argv)
             double iv = measure(b, run_interval, seconds);
             double gr = measure(b, run_grad, seconds);
             double ry = measure(b, run_ray, seconds);
+            double af = measure(b, run_affine, seconds);
             printf("%-26s %-9s %7u %9.3f %11.3f %9.3f %9.3f %9.3f %7.2f %8.2f\n", s.source.name,
                    p, s.tape->n, pt, iv, gr, ry, af, iv / pt, gr / iv);
         }

@@ -38,3 +38,47 @@ function(ivoct_module target)
         install(FILES ${ARG_HEADERS} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/ivoct/${folder})
     endif()
 endfunction()
+
+# The SIMD paths: portable everywhere, and on x86-64 also avx2 and avx512 (chosen at
+# run time by expr/eval.c; tests/ runs some tests once per path).
+if(CMAKE_SYSTEM_PROCESSOR MATCHES "^(x86_64|AMD64|amd64)$")
+    set(IVOCT_SIMD_PATHS portable avx2 avx512)
+else()
+    set(IVOCT_SIMD_PATHS portable)
+endif()
+
+# ivoct_simd_kernels(<target> <stem>)
+# Adds <stem>_<path>.c of the current folder to <target> for each SIMD path: one
+# source (a header each of them includes) compiled once per path with that path's
+# flags, so every path does the same IEEE operations in the same order and only the
+# vector width differs.  On x86-64 the target gets IVOCT_SIMD_X86.
+#   - The flags name instruction sets, not a CPU, so the code runs on any CPU that
+#     has them; -mprefer-vector-width=512 because gcc otherwise keeps AVX-512 code
+#     at 256 bits.  No -mfma: contraction is off anyway (ivoct_options above).
+#   - -fno-trapping-math: without it gcc will not turn the selects of the outward
+#     rounding (x == INFINITY ? DBL_MAX : y) into vector blends, except with
+#     AVX-512's masks, so the lane loops stay scalar.  It lets the compiler assume
+#     no FP trap is enabled (none ever is) and changes no result: contraction,
+#     reassociation and the rounding mode are untouched.  (clang's default.)
+#   - gcc's default inlining limits stop short of the larger lane loops (an iv_mul
+#     left out of line keeps its loop scalar), hence the params.
+#   - clang: -Wno-pass-failed, because a loop whose vectorisation the source asks
+#     for (K_LANES in ilie/affine_kernels.h) stays scalar under the sanitizers'
+#     instrumentation, and clang warns about it.
+function(ivoct_simd_kernels target stem)
+    foreach(path IN LISTS IVOCT_SIMD_PATHS)
+        set(src ${CMAKE_CURRENT_SOURCE_DIR}/${stem}_${path}.c)
+        target_sources(${target} PRIVATE ${src})
+        set_property(SOURCE ${src} APPEND PROPERTY COMPILE_OPTIONS "-fno-trapping-math"
+            "$<$<C_COMPILER_ID:GNU>:--param=max-inline-insns-single=2000;--param=inline-unit-growth=400;--param=large-function-growth=1000>"
+            "$<$<C_COMPILER_ID:Clang>:-Wno-pass-failed>")
+    endforeach()
+    if("avx2" IN_LIST IVOCT_SIMD_PATHS)
+        target_compile_definitions(${target} PRIVATE IVOCT_SIMD_X86)
+        set_property(SOURCE ${CMAKE_CURRENT_SOURCE_DIR}/${stem}_avx2.c APPEND
+            PROPERTY COMPILE_OPTIONS "-mavx2")
+        set_property(SOURCE ${CMAKE_CURRENT_SOURCE_DIR}/${stem}_avx512.c APPEND
+            PROPERTY COMPILE_OPTIONS
+            "-mavx512f;-mavx512dq;-mavx512vl;-mavx512bw;-mprefer-vector-width=512")
+    endif()
+endfunction()

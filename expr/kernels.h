@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "eval_internal.h"
+#include "lanes.h"
 
 #ifndef KERNEL_TARGET
 #error "kernels.h is included by kernels_<target>.c, which defines KERNEL_TARGET"
@@ -23,6 +24,7 @@
 #define KSTR(a) KSTR_(a)
 
 #define B TAPE_BATCH
+_Static_assert(TAPE_BATCH <= IV_LANES_MAX, "lanes.h takes at most IV_LANES_MAX lanes");
 
 /* ---- interval lanes ------------------------------------------------------------ */
 
@@ -57,81 +59,6 @@ static inline iv_t k_max(iv_t a, iv_t b)
     return r;
 }
 
-static inline double k_dn0(double x) /* iv_down of a value known to be >= 0 */
-{
-    double y = iv_down(x);
-    return y < 0.0 ? 0.0 : y;
-}
-
-/* m^e (m >= 0, e >= 1) rounded down (up = 0) or up (up = 1) for every lane:
- * the binary exponentiation of interval.c (pow_dn, pow_up) with the lanes
- * innermost, the same products in the same order, so the same bounds.  m is
- * only read (its first nl lanes); it is not const because gcc 12 takes a const
- * pointer to a local array written for nl lanes as a read of the whole array
- * (-Wmaybe-uninitialized), and zeroing the array for it cost every pass. */
-static void k_pow_bound(double *restrict m, size_t nl, unsigned e, int up,
-                        double *restrict out)
-{
-    double base[B];
-    for (size_t k = 0; k < nl; k++)
-        out[k] = 1.0, base[k] = m[k];
-    for (;;) {
-        if (e & 1u) {
-            if (up)
-                for (size_t k = 0; k < nl; k++)
-                    out[k] = iv_up(out[k] * base[k]);
-            else
-                for (size_t k = 0; k < nl; k++)
-                    out[k] = k_dn0(out[k] * base[k]);
-        }
-        e >>= 1;
-        if (e == 0)
-            break;
-        if (up)
-            for (size_t k = 0; k < nl; k++)
-                base[k] = iv_up(base[k] * base[k]);
-        else
-            for (size_t k = 0; k < nl; k++)
-                base[k] = k_dn0(base[k] * base[k]);
-    }
-    for (size_t k = 0; k < nl; k++)
-        out[k] = m[k] == 0.0 ? 0.0 : out[k];
-}
-
-/* iv_powi(a, e) for e >= 3, every lane: odd powers are increasing (the
- * bounds' magnitudes, each raised in the direction its sign needs), even
- * ones monotone in |x| (the magnitudes' range); interval.c, powi_pos. */
-static void k_powi_pos(const double *restrict al, const double *restrict ah, size_t nl,
-                       unsigned e, double *restrict ol, double *restrict oh)
-{
-    const int odd = e & 1u;
-    double ml[B], mh[B], dl[B], uh[B];
-    for (size_t k = 0; k < nl; k++) {
-        int pos = al[k] >= 0.0, neg = ah[k] <= 0.0;
-        double top = -al[k] > ah[k] ? -al[k] : ah[k];
-        ml[k] = odd ? fabs(al[k]) : pos ? al[k] : neg ? -ah[k] : 0.0;
-        mh[k] = odd ? fabs(ah[k]) : pos ? ah[k] : neg ? -al[k] : top;
-    }
-    /* an even power's bounds are ml^e down and mh^e up; an odd one's take the
-     * other direction too where a bound is negative */
-    k_pow_bound(ml, nl, e, 0, dl);
-    k_pow_bound(mh, nl, e, 1, uh);
-    if (odd) {
-        double ul[B], dh[B];
-        k_pow_bound(ml, nl, e, 1, ul);
-        k_pow_bound(mh, nl, e, 0, dh);
-        for (size_t k = 0; k < nl; k++) {
-            dl[k] = al[k] < 0.0 ? -ul[k] : dl[k];
-            uh[k] = ah[k] < 0.0 ? -dh[k] : uh[k];
-        }
-    }
-    for (size_t k = 0; k < nl; k++) {
-        int empty = (al[k] != al[k]) | (ah[k] != ah[k]);
-        ol[k] = empty ? NAN : dl[k];
-        oh[k] = empty ? NAN : uh[k];
-    }
-}
-
 #define IV(lo, hi, k) iv_make((lo)[k], (hi)[k])
 #define LANES_UNARY(fn)                                                                      \
     for (size_t k = 0; k < nl; k++) {                                                        \
@@ -163,7 +90,7 @@ static void K(interval)(const tape_t *t, double *LO, double *HI, size_t nl, kern
         case TAPE_POWI: {
             int n = (int)c->c.lo;
             if (n >= 3) {
-                k_powi_pos(al, ah, nl, (unsigned)n, ol, oh);
+                iv_powi_lanes(al, ah, nl, (unsigned)n, ol, oh);
             } else {
                 for (size_t k = 0; k < nl; k++) {
                     iv_t r = iv_powi(IV(al, ah, k), n);
@@ -487,7 +414,7 @@ static void g_lanes_powi(double *o, const double *a, size_t nl, unsigned n, unsi
             sl[k] = r.lo, sh[k] = r.hi;
         }
     } else {
-        k_powi_pos(avl, avh, nl, n - 1, sl, sh);
+        iv_powi_lanes(avl, avh, nl, n - 1, sl, sh);
     }
     iv_t nn = iv_point((double)n);
     for (size_t k = 0; k < nl; k++) {
@@ -495,7 +422,7 @@ static void g_lanes_powi(double *o, const double *a, size_t nl, unsigned n, unsi
         sl[k] = r.lo, sh[k] = r.hi;
     }
     g_lanes_scale(o, sl, sh, a, nl, ma);
-    k_powi_pos(avl, avh, nl, n, GLO(o, 0), GHI(o, 0));
+    iv_powi_lanes(avl, avh, nl, n, GLO(o, 0), GHI(o, 0));
 }
 
 #define G_LANES_BINARY(fn)                                                                   \
@@ -595,14 +522,14 @@ static void r_lanes_powi(double *o, const double *a, size_t nl, unsigned n)
             vl[k] = v.lo, vh[k] = v.hi, sl[k] = s2.lo, sh[k] = s2.hi;
         }
     } else {
-        k_powi_pos(avl, avh, nl, n, vl, vh);
+        iv_powi_lanes(avl, avh, nl, n, vl, vh);
         if (n - 1 == 2)
             for (size_t k = 0; k < nl; k++) {
                 iv_t r = iv_sqr(IV(avl, avh, k));
                 sl[k] = r.lo, sh[k] = r.hi;
             }
         else
-            k_powi_pos(avl, avh, nl, n - 1, sl, sh);
+            iv_powi_lanes(avl, avh, nl, n - 1, sl, sh);
         iv_t nn = iv_point((double)n);
         for (size_t k = 0; k < nl; k++) {
             iv_t r = iv_mul(nn, IV(sl, sh, k));

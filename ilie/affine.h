@@ -20,6 +20,7 @@
 #define IVOCT_ILIE_AFFINE_H
 
 #include "../expr/interval.h"
+#include "../expr/tape.h"
 
 typedef struct aa {
     double x[4];
@@ -61,5 +62,25 @@ static inline double aa_fin_up(double s)
 {
     return s * (1.0 + 0x1p-44) + 0x1p-1040;
 }
+
+/* ---- the structure-of-arrays pass (affine_kernels.h) -----------------------------
+ * The forms of a batch of up to ILIE_BATCH cells, lanes innermost: slot i of the
+ * tape holds A_ARRAYS arrays of ILIE_BATCH doubles, array c at
+ * S + (i * A_ARRAYS + c) * ILIE_BATCH, lane k at index k.  The pass is
+ * compiled once per SIMD path, like the tape evaluators of expr/; every path
+ * gives every lane the bits the scalar aa_ functions give. */
+#define ILIE_BATCH 64 /* at most IV_LANES_MAX (expr/lanes.h) */
+enum { A_X0, A_X1, A_X2, A_X3, A_E, A_VLO, A_VHI, A_ARRAYS };
+
+/* The forms of every clause of t for lanes 0..nl-1 (nl <= ILIE_BATCH, a
+ * multiple of 8 when it is larger than 8), from the variables' forms
+ * var[d][k] (d = 0, 1, 2 for x, y, z), into S (t->n slots); the last clause's
+ * forms into f[0..nl-1]. */
+typedef void ilie_pass_fn(const tape_t *t, double *S, size_t nl,
+                          const aa_t (*var)[ILIE_BATCH], aa_t *f);
+ilie_pass_fn ilie_pass_portable;
+#ifdef IVOCT_SIMD_X86
+ilie_pass_fn ilie_pass_avx2, ilie_pass_avx512;
+#endif
 
 #endif

@@ -5,16 +5,21 @@
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "affine.h"
 
-#define L ILIE_LANES
 #define U 0x1p-53
 
 struct ilie_ws {
     uint32_t cap; /* clauses */
-    aa_t *slot;   /* cap * L, clause-major: slot[i * L + lane] */
+    double *S;    /* cap slots of the affine pass (affine.h) */
 };
+
+static double *slots_new(uint32_t clauses)
+{
+    return malloc((size_t)clauses * A_ARRAYS * ILIE_BATCH * sizeof(double));
+}
 
 ilie_ws_t *ilie_ws_new(uint32_t max_clauses)
 {
@@ -22,8 +27,8 @@ ilie_ws_t *ilie_ws_new(uint32_t max_clauses)
     if (!ws)
         return NULL;
     ws->cap = max_clauses ? max_clauses : 1;
-    ws->slot = malloc((size_t)ws->cap * L * sizeof *ws->slot);
-    if (!ws->slot) {
+    ws->S = slots_new(ws->cap);
+    if (!ws->S) {
         free(ws);
         return NULL;
     }
@@ -34,7 +39,7 @@ void ilie_ws_free(ilie_ws_t *ws)
 {
     if (!ws)
         return;
-    free(ws->slot);
+    free(ws->S);
     free(ws);
 }
 
@@ -42,12 +47,26 @@ static int reserve(ilie_ws_t *ws, uint32_t n)
 {
     if (n <= ws->cap)
         return 0;
-    aa_t *p = realloc(ws->slot, (size_t)n * L * sizeof *p);
-    if (!p)
+    double *S = slots_new(n);
+    if (!S)
         return -1;
-    ws->slot = p;
+    free(ws->S);
+    ws->S = S;
     ws->cap = n;
     return 0;
+}
+
+/* The affine pass of the SIMD path in use (expr/'s choice, tape_simd_name). */
+static ilie_pass_fn *pass_in_use(void)
+{
+#ifdef IVOCT_SIMD_X86
+    const char *name = tape_simd_name();
+    if (!strcmp(name, "avx512"))
+        return ilie_pass_avx512;
+    if (!strcmp(name, "avx2"))
+        return ilie_pass_avx2;
+#endif
+    return ilie_pass_portable;
 }
 
 /* Centre and noise radius of a cell side: c the rounded midpoint (inside
@@ -110,63 +129,25 @@ static void to_ilie(const aa_t *f, const double c[3], const double r[3], ilie_t 
     l->J = iv_make(iv_down(f->x[0] - e), iv_up(f->x[0] + e));
 }
 
-static void eval_chunk(const tape_t *t, aa_t *S, size_t m, const iv_box_t *box, ilie_t *out)
+/* m <= ILIE_BATCH cells: the variables' forms, the pass, the ILIEs.  Lanes are padded
+ * to a multiple of 8 with copies of the first cell, so the pass's lane loops
+ * have no scalar remainder. */
+static void eval_chunk(ilie_pass_fn *pass, const tape_t *t, double *S, size_t m,
+                       const iv_box_t *box, ilie_t *out)
 {
-    double c[L][3], r[L][3];
-    aa_t var[3][L];
-    for (size_t k = 0; k < m; k++) {
-        const iv_t side[3] = {box[k].x, box[k].y, box[k].z};
+    double c[ILIE_BATCH][3], r[ILIE_BATCH][3];
+    aa_t var[3][ILIE_BATCH], f[ILIE_BATCH];
+    size_t nl = m > 8 ? (m + 7) / 8 * 8 : m;
+    for (size_t k = 0; k < nl; k++) {
+        const iv_box_t *x = &box[k < m ? k : 0];
+        const iv_t side[3] = {x->x, x->y, x->z};
         for (int d = 0; d < 3; d++) {
             frame(side[d], &c[k][d], &r[k][d]);
             iv_t b = side[d].lo <= side[d].hi ? side[d] : iv_entire(); /* NaN, reversed */
             aa_var(&var[d][k], d, c[k][d], r[k][d], b);
         }
     }
-    for (uint32_t i = 0; i < t->n; i++) {
-        const tape_clause_t *cl = &t->clauses[i];
-        aa_t *o = S + (size_t)i * L;
-        tape_op_t op = (tape_op_t)cl->op;
-        int unary = op >= TAPE_NEG && op <= TAPE_ABS;
-        int binary = op >= TAPE_ADD && op <= TAPE_MAX;
-        /* a malformed tape (operand not before the clause) gets no information
-         * rather than a read of an unwritten slot */
-        if ((unary || binary) && (cl->a >= i || (binary && cl->b >= i)))
-            op = TAPE_OP_COUNT;
-        const aa_t *a = S + (size_t)(unary || binary ? cl->a : 0) * L;
-        const aa_t *b = S + (size_t)(binary ? cl->b : 0) * L;
-        switch (op) {
-        case TAPE_CONST:
-            aa_const(&o[0], cl->c);
-            for (size_t k = 1; k < m; k++) o[k] = o[0];
-            break;
-        case TAPE_X: for (size_t k = 0; k < m; k++) o[k] = var[0][k]; break;
-        case TAPE_Y: for (size_t k = 0; k < m; k++) o[k] = var[1][k]; break;
-        case TAPE_Z: for (size_t k = 0; k < m; k++) o[k] = var[2][k]; break;
-        case TAPE_NEG: for (size_t k = 0; k < m; k++) aa_neg(&o[k], &a[k]); break;
-        case TAPE_SQR: for (size_t k = 0; k < m; k++) aa_sqr(&o[k], &a[k]); break;
-        case TAPE_POWI: for (size_t k = 0; k < m; k++) aa_powi(&o[k], &a[k], cl->c.lo); break;
-        case TAPE_POWR: for (size_t k = 0; k < m; k++) aa_powr(&o[k], &a[k], cl->c.lo); break;
-        case TAPE_SQRT: for (size_t k = 0; k < m; k++) aa_sqrt(&o[k], &a[k]); break;
-        case TAPE_EXP: for (size_t k = 0; k < m; k++) aa_exp(&o[k], &a[k]); break;
-        case TAPE_LOG: for (size_t k = 0; k < m; k++) aa_log(&o[k], &a[k]); break;
-        case TAPE_SIN: for (size_t k = 0; k < m; k++) aa_sin(&o[k], &a[k]); break;
-        case TAPE_COS: for (size_t k = 0; k < m; k++) aa_cos(&o[k], &a[k]); break;
-        case TAPE_TAN: for (size_t k = 0; k < m; k++) aa_tan(&o[k], &a[k]); break;
-        case TAPE_ATAN: for (size_t k = 0; k < m; k++) aa_atan(&o[k], &a[k]); break;
-        case TAPE_ABS: for (size_t k = 0; k < m; k++) aa_abs(&o[k], &a[k]); break;
-        case TAPE_ADD: for (size_t k = 0; k < m; k++) aa_add(&o[k], &a[k], &b[k]); break;
-        case TAPE_SUB: for (size_t k = 0; k < m; k++) aa_sub(&o[k], &a[k], &b[k]); break;
-        case TAPE_MUL: for (size_t k = 0; k < m; k++) aa_mul(&o[k], &a[k], &b[k]); break;
-        case TAPE_DIV: for (size_t k = 0; k < m; k++) aa_div(&o[k], &a[k], &b[k]); break;
-        case TAPE_MIN: for (size_t k = 0; k < m; k++) aa_min(&o[k], &a[k], &b[k]); break;
-        case TAPE_MAX: for (size_t k = 0; k < m; k++) aa_max(&o[k], &a[k], &b[k]); break;
-        case TAPE_OP_COUNT:
-        default:
-            for (size_t k = 0; k < m; k++) aa_from_iv(&o[k], iv_entire());
-            break;
-        }
-    }
-    const aa_t *f = S + (size_t)(t->n - 1) * L;
+    pass(t, S, nl, (const aa_t (*)[ILIE_BATCH])var, f);
     for (size_t k = 0; k < m; k++)
         to_ilie(&f[k], c[k], r[k], &out[k]);
 }
@@ -174,10 +155,11 @@ static void eval_chunk(const tape_t *t, aa_t *S, size_t m, const iv_box_t *box, 
 void ilie_eval(const tape_t *t, ilie_ws_t *ws, size_t n, const iv_box_t *box, ilie_t *out)
 {
     int ok = t && ws && t->n > 0 && reserve(ws, t->n) == 0;
-    for (size_t base = 0; base < n; base += L) {
-        size_t m = n - base < L ? n - base : L;
+    ilie_pass_fn *pass = pass_in_use();
+    for (size_t base = 0; base < n; base += ILIE_BATCH) {
+        size_t m = n - base < ILIE_BATCH ? n - base : ILIE_BATCH;
         if (ok) {
-            eval_chunk(t, ws->slot, m, box + base, out + base);
+            eval_chunk(pass, t, ws->S, m, box + base, out + base);
             continue;
         }
         for (size_t k = 0; k < m; k++) {
@@ -232,6 +214,32 @@ bool ilie_excludes_box(const ilie_t *l, const iv_box_t *box, int *sign)
     return ex;
 }
 
+/* x · 2^k rounded once, as ldexp: the product by the power of two where 2^k is
+ * a normal double (one IEEE multiplication, rounded once like ldexp: the libm
+ * call stood out in profiles of builds with slabs), ldexp elsewhere. */
+static double scale2(double x, int k)
+{
+    if (k < -1022 || k > 1023)
+        return ldexp(x, k);
+    uint64_t bits = (uint64_t)(k + 1023) << 52;
+    double p;
+    memcpy(&p, &bits, sizeof p);
+    return x * p;
+}
+
+/* frexp's exponent of a finite x > 0: x = m · 2^ex with m in [1/2, 1). */
+static int exponent_of(double x)
+{
+    int ex;
+    if (!(x >= DBL_MIN)) {
+        frexp(x, &ex);
+        return ex;
+    }
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    return (int)((bits >> 52) & 0x7ff) - 1022;
+}
+
 /* |a| = 2^ex · Nb, with B[k] enclosing a_k 2^-ex: scaled by a power of two so
  * that squaring neither overflows nor underflows (max |a_k 2^-ex| is in
  * [1/2, 1)).  The scaling is exact except for components that become
@@ -241,21 +249,21 @@ static int scaled_norm(const ilie_t *l, iv_t B[3], iv_t *Nb, int *ex)
     double amax = fmax(fabs(l->a[0]), fmax(fabs(l->a[1]), fabs(l->a[2])));
     if (!(amax > 0.0 && amax <= DBL_MAX))
         return 0;
-    frexp(amax, ex);
+    *ex = exponent_of(amax);
     iv_t s = iv_point(0.0);
     for (int k = 0; k < 3; k++) {
-        double b = ldexp(l->a[k], -*ex);
-        B[k] = ldexp(b, *ex) == l->a[k] ? iv_point(b) : iv_make(iv_down(b), iv_up(b));
+        double b = scale2(l->a[k], -*ex);
+        B[k] = scale2(b, *ex) == l->a[k] ? iv_point(b) : iv_make(iv_down(b), iv_up(b));
         s = iv_add(s, iv_sqr(B[k]));
     }
     *Nb = iv_sqrt(s);
     return Nb->lo > 0.0;
 }
 
-/* [lo, hi] · 2^k, outward (ldexp rounds only on underflow and overflow). */
+/* [lo, hi] · 2^k, outward (the scaling rounds only on underflow and overflow). */
 static iv_t iv_scale2(iv_t a, int k)
 {
-    return iv_make(iv_down(ldexp(a.lo, k)), iv_up(ldexp(a.hi, k)));
+    return iv_make(iv_down(scale2(a.lo, k)), iv_up(scale2(a.hi, k)));
 }
 
 double ilie_thickness(const ilie_t *l)
@@ -268,7 +276,7 @@ double ilie_thickness(const ilie_t *l)
     if (!scaled_norm(l, B, &Nb, &ex) || !(w <= DBL_MAX))
         return INFINITY;
     /* w / (Nb 2^ex) */
-    return iv_up(ldexp(iv_up(w / Nb.lo), -ex));
+    return iv_up(scale2(iv_up(w / Nb.lo), -ex));
 }
 
 /* For p in the cell with 0 ∈ a·(p − c) + J, write â = a/|a| (exact):

@@ -55,13 +55,12 @@ typedef struct ilie {
  * J = [-inf, +inf] for every cell, which is still a true statement). */
 typedef struct ilie_ws ilie_ws_t;
 
-#define ILIE_LANES 8 /* cells per pass of the affine evaluator */
-
 ilie_ws_t *ilie_ws_new(uint32_t max_clauses); /* NULL when out of memory */
 void ilie_ws_free(ilie_ws_t *ws);
 
 /* The ILIE of f over each of the n cells box[0..n-1] into out[0..n-1].  Cells
- * are processed ILIE_LANES at a time with the lanes innermost.  Cells should be
+ * are processed up to 64 at a time in a structure-of-arrays pass (lanes
+ * innermost) compiled for each SIMD path; every path gives the same bits.  Cells should be
  * finite boxes with lo <= hi; a side that is not (infinite, NaN or reversed)
  * gets r_k = 0 and its variable becomes a plain interval (rigorous, no slope). */
 void ilie_eval(const tape_t *t, ilie_ws_t *ws, size_t n, const iv_box_t *box, ilie_t *out);

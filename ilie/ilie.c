@@ -16,9 +16,16 @@ struct ilie_ws {
     double *S;    /* cap slots of the affine pass (affine.h) */
 };
 
-static double *slots_new(uint32_t clauses)
+static size_t slots_bytes(uint32_t clauses)
 {
-    return malloc((size_t)clauses * A_ARRAYS * ILIE_BATCH * sizeof(double));
+    return (size_t)clauses * A_ARRAYS * ILIE_BATCH * sizeof(double);
+}
+
+static double *slots_new(uint32_t clauses) { return malloc(slots_bytes(clauses)); }
+
+size_t ilie_ws_bytes(uint32_t max_clauses)
+{
+    return sizeof(struct ilie_ws) + slots_bytes(max_clauses ? max_clauses : 1);
 }
 
 ilie_ws_t *ilie_ws_new(uint32_t max_clauses)

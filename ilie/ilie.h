@@ -57,6 +57,8 @@ typedef struct ilie_ws ilie_ws_t;
 
 ilie_ws_t *ilie_ws_new(uint32_t max_clauses); /* NULL when out of memory */
 void ilie_ws_free(ilie_ws_t *ws);
+/* The bytes ilie_ws_new(max_clauses) allocates (for memory budgets). */
+size_t ilie_ws_bytes(uint32_t max_clauses);
 
 /* The ILIE of f over each of the n cells box[0..n-1] into out[0..n-1].  Cells
  * are processed up to 64 at a time in a structure-of-arrays pass (lanes

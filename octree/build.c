@@ -69,7 +69,8 @@ static int worker_init(worker_t *w, build_t *b)
         return -1;
     build_account(b, (ptrdiff_t)((b->choices ? CHAIN_BATCH * (size_t)n : 0) +
                                  3 * (size_t)n * sizeof *w->scratch + chain_bytes +
-                                 tape_ws_bytes(n)));
+                                 tape_ws_bytes(n) +
+                                 ((b->tests & OCT_TEST_ILIE) ? ilie_ws_bytes(n) : 0)));
     return 0;
 }
 

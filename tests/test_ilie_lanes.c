@@ -15,7 +15,8 @@
  *
  * iv_powi_lanes and iv_pow_bound_lanes (expr/lanes.h) must give the bounds of
  * iv_powi and of the binary exponentiation it uses, for random intervals of
- * every sign and scale and every exponent 3..64. */
+ * every sign and scale and every exponent 3..64.  And ilie_ws_bytes must say
+ * what a workspace takes from the heap. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -26,9 +27,11 @@
 #include <string.h>
 
 #include <cmocka.h>
+#include <malloc.h>
 
 #include "../expr/lanes.h"
 #include "../ilie/affine.h"
+#include "../ilie/ilie.h"
 #include "../scene/scene.h"
 #include "support/testutil.h"
 
@@ -323,12 +326,35 @@ static void test_powi_lanes(void **state)
     printf("    %ld lanes checked\n", checked);
 }
 
+/* ilie_ws_bytes: what the workspace takes from the heap (glibc's counters of
+ * bytes in use, small blocks and mapped ones), up to the allocator's headers.
+ * The sanitizers' allocator keeps no such counters: skipped there. */
+static void test_ws_bytes(void **state)
+{
+    (void)state;
+    if (tu_sanitizer_build())
+        skip();
+    const uint32_t sizes[] = {1, 19, 237, 4096};
+    for (size_t i = 0; i < sizeof sizes / sizeof *sizes; i++) {
+        struct mallinfo2 before = mallinfo2();
+        ilie_ws_t *ws = ilie_ws_new(sizes[i]);
+        struct mallinfo2 after = mallinfo2();
+        assert_non_null(ws);
+        size_t used = (after.uordblks + after.hblkhd) - (before.uordblks + before.hblkhd);
+        size_t said = ilie_ws_bytes(sizes[i]);
+        if (used < said || used > said + 8192)
+            fail_msg("ilie_ws_new(%u) took %zu bytes, ilie_ws_bytes says %zu", sizes[i], used, said);
+        ilie_ws_free(ws);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_pass_matches_scalar_ops),
         cmocka_unit_test(test_pass_matches_scalar_scenes),
         cmocka_unit_test(test_powi_lanes),
+        cmocka_unit_test(test_ws_bytes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -5,10 +5,10 @@
  * and is compiled with that target's flags (as expr/kernels.h is); everything
  * here is static except ilie_pass_<target>.
  *
- * The operations that dominate polynomial tapes (neg, add, sub, mul, sqr) run
- * as loops over the lanes that compute exactly what affine.c's aa_neg, aa_add,
- * aa_sub, aa_mul and aa_sqr compute on their common path: the same IEEE
- * operations in the same order, written without branches so that they
+ * The operations that dominate polynomial and CSG tapes (neg, add, sub, mul,
+ * sqr, integer powers, min and max) run as loops over the lanes that compute
+ * exactly what affine.c's aa_ functions compute on their common path: the same
+ * IEEE operations in the same order, written without branches so that they
  * vectorise.  A lane that leaves the common path (an empty or unbounded
  * operand, a form that overflows, an empty intersection with the interval
  * result) is marked, and the scalar aa_ function recomputes it from its
@@ -257,6 +257,59 @@ static void k_sqr(k_slots_t p, size_t nl, int64_t *restrict slow)
     }
 }
 
+/* aa_min (is_max = 0) and aa_max where the affine difference d = a − b
+ * decides the branch (its range on one side of 0, where correlated terms have
+ * cancelled): the chosen operand, its enclosure narrowed by the interval
+ * result.  An undecided branch (the kink's chord), an empty operand, and the
+ * exits of d's own computation (aa_sub's, as in k_add) go to the scalar
+ * function.  The selects compare doubles and stay one condition each: flags
+ * built from C's int comparisons keep gcc 12 from vectorising the loop. */
+static void k_minmax(k_slots_t p, size_t nl, int is_max, int64_t *restrict slow)
+{
+    const double *a0 = p.a[A_X0], *a1 = p.a[A_X1], *a2 = p.a[A_X2], *a3 = p.a[A_X3];
+    const double *b0 = p.b[A_X0], *b1 = p.b[A_X1], *b2 = p.b[A_X2], *b3 = p.b[A_X3];
+    const double *ae = p.a[A_E], *be = p.b[A_E];
+    const double *al = p.a[A_VLO], *ah = p.a[A_VHI], *bl = p.b[A_VLO], *bh = p.b[A_VHI];
+    double *restrict z0 = p.o[A_X0], *restrict z1 = p.o[A_X1], *restrict z2 = p.o[A_X2];
+    double *restrict z3 = p.o[A_X3], *restrict ze = p.o[A_E];
+    double *restrict zl = p.o[A_VLO], *restrict zh = p.o[A_VHI];
+    /* min takes a where d <= 0 and b where d >= 0; max the other way round:
+     * with σ = ±1, a where σ·d's upper end is <= 0, b where its lower end is >= 0 */
+    K_LANES
+    for (size_t k = 0; k < nl; k++) {
+        /* v: iv_min or iv_max of non-empty operands */
+        double vl = is_max ? (al[k] > bl[k] ? al[k] : bl[k]) : (al[k] < bl[k] ? al[k] : bl[k]);
+        double vh = is_max ? (ah[k] > bh[k] ? ah[k] : bh[k]) : (ah[k] < bh[k] ? ah[k] : bh[k]);
+        /* d = aa_sub(a, b) */
+        double dvl = iv_add_down(al[k], -bh[k]), dvh = iv_add_up(ah[k], -bl[k]);
+        double x0 = a0[k] - b0[k], x1 = a1[k] - b1[k], x2 = a2[k] - b2[k], x3 = a3[k] - b3[k];
+        double s = 0.0;
+        s += fabs(x0);
+        s += fabs(x1);
+        s += fabs(x2);
+        s += fabs(x3);
+        double e = aa_fin_up(ae[k] + be[k] + U * s);
+        double dl, dh;
+        int64_t odd = k_finish(x0, x1, x2, x3, e, dvl, dvh, &dl, &dh);
+        double up = is_max ? -dl : dh, down = is_max ? -dh : dl; /* σ·d */
+        int take_a = up <= 0.0;
+        odd = take_a ? odd : (down >= 0.0 ? odd : 1);
+        double c0 = take_a ? a0[k] : b0[k], c1 = take_a ? a1[k] : b1[k];
+        double c2 = take_a ? a2[k] : b2[k], c3 = take_a ? a3[k] : b3[k];
+        double ce = take_a ? ae[k] : be[k];
+        double cl = take_a ? al[k] : bl[k], ch = take_a ? ah[k] : bh[k];
+        /* narrow() by v */
+        double lo = cl > vl ? cl : vl, hi = ch < vh ? ch : vh;
+        odd = lo > hi ? 1 : odd;
+        odd = al[k] != al[k] ? 1 : odd;
+        odd = ah[k] != ah[k] ? 1 : odd;
+        odd = bl[k] != bl[k] ? 1 : odd;
+        odd = bh[k] != bh[k] ? 1 : odd;
+        z0[k] = c0, z1[k] = c1, z2[k] = c2, z3[k] = c3, ze[k] = ce, zl[k] = lo, zh[k] = hi;
+        slow[k] = odd;
+    }
+}
+
 /* aa_powi for an integer 3 <= n <= 64: convex_approx of affine.c for x^n on the
  * argument's range [l, h] (one convex piece for even n; for odd n one concave
  * piece when h <= 0, one convex piece when l >= 0), with the chord slope α, the
@@ -416,6 +469,8 @@ void K(ilie_pass)(const tape_t *t, double *S, size_t nl, const aa_t (*var)[ILIE_
         case TAPE_SUB: k_add(p, nl, 1, slow); break;
         case TAPE_MUL: k_mul(p, nl, slow); break;
         case TAPE_SQR: k_sqr(p, nl, slow); break;
+        case TAPE_MIN: k_minmax(p, nl, 0, slow); break;
+        case TAPE_MAX: k_minmax(p, nl, 1, slow); break;
         case TAPE_POWI:
             if (cl->c.lo >= 3.0 && cl->c.lo <= 64.0 && cl->c.lo == floor(cl->c.lo))
                 k_powi(p, nl, (unsigned)cl->c.lo, slow);

@@ -21,6 +21,7 @@
 
 #include "../expr/interval.h"
 #include "../expr/tape.h"
+#include "ilie.h"
 
 typedef struct aa {
     double x[4];
@@ -78,9 +79,21 @@ enum { A_X0, A_X1, A_X2, A_X3, A_E, A_VLO, A_VHI, A_ARRAYS };
  * forms into f[0..nl-1]. */
 typedef void ilie_pass_fn(const tape_t *t, double *S, size_t nl,
                           const aa_t (*var)[ILIE_BATCH], aa_t *f);
-ilie_pass_fn ilie_pass_portable;
+
+/* ilie_excludes_box for nl <= ILIE_BATCH lanes (ilie.h, ilie_excludes_boxes):
+ * code[j] = 1 or -1 (excluded, the sign), 2 (excluded: J empty, no sign), 0
+ * (not excluded), or 3: not decided here (an empty side), ask ilie_excludes_box. */
+typedef void ilie_excludes_fn(size_t nl, const ilie_t *l, const iv_box_t *box, int64_t *code);
+
+/* A SIMD path's lane functions. */
+typedef struct {
+    const char *name; /* tape_simd_name()'s */
+    ilie_pass_fn *pass;
+    ilie_excludes_fn *excludes;
+} ilie_lanes_t;
+extern const ilie_lanes_t ilie_lanes_portable;
 #ifdef IVOCT_SIMD_X86
-ilie_pass_fn ilie_pass_avx2, ilie_pass_avx512;
+extern const ilie_lanes_t ilie_lanes_avx2, ilie_lanes_avx512;
 #endif
 
 #endif

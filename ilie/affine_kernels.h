@@ -29,6 +29,8 @@
 #define KCAT_(a, b) a##_##b
 #define KCAT(a, b) KCAT_(a, b)
 #define K(name) KCAT(name, KERNEL_TARGET)
+#define KSTR_(a) #a
+#define KSTR(a) KSTR_(a)
 
 #define B ILIE_BATCH
 #define U 0x1p-53 /* unit roundoff, as in affine.c */
@@ -431,7 +433,7 @@ static void k_powi(k_slots_t p, size_t nl, unsigned n, int64_t *restrict slow)
 /* The pass: the forms of every clause for lanes 0..nl-1 (nl <= B; a multiple of
  * 8 unless smaller, as ilie.c pads it), from the variables' forms var[d][k];
  * the last clause's forms into f[0..nl-1]. */
-void K(ilie_pass)(const tape_t *t, double *S, size_t nl, const aa_t (*var)[ILIE_BATCH],
+static void K(ilie_pass)(const tape_t *t, double *S, size_t nl, const aa_t (*var)[ILIE_BATCH],
                   aa_t *f)
 {
     int64_t slow[B]; /* lanes as wide as a double: the flags vectorise with the values */
@@ -486,3 +488,51 @@ void K(ilie_pass)(const tape_t *t, double *S, size_t nl, const aa_t (*var)[ILIE_
     for (size_t k = 0; k < nl; k++)
         f[k] = k_get(S, t->n - 1, k);
 }
+
+/* ilie_excludes_box over lanes: affine_at's J + Σ a_k (P_k − c_k), the same
+ * interval operations in the same order.  affine_at skips a component with
+ * a_k = 0; here its term iv_mul([0, 0], X) is exactly [0, 0] and adding it
+ * changes no bound but the sign of a zero (which no comparison below sees),
+ * unless X is empty (a NaN side or centre): such lanes are left to
+ * ilie_excludes_box (code 3).  The ILIEs and boxes are read into arrays first
+ * (they are structs), and each interval operation writes arrays that the next
+ * loop reads: with two of them in one loop gcc 12 folds one's NaN or zero
+ * test into the other's and gives up on the loop (see k_powi). */
+static void K(ilie_excludes)(size_t nl, const ilie_t *l, const iv_box_t *box, int64_t *code)
+{
+    double xl[3][B], xh[3][B], tl[3][B], th[3][B], a[3][B], c[3][B], pl[3][B], ph[3][B];
+    double sl[B], sh[B];
+    for (size_t k = 0; k < nl; k++) {
+        sl[k] = l[k].J.lo, sh[k] = l[k].J.hi;
+        const iv_t side[3] = {box[k].x, box[k].y, box[k].z};
+        for (int d = 0; d < 3; d++) {
+            a[d][k] = l[k].a[d], c[d][k] = l[k].c[d];
+            pl[d][k] = side[d].lo, ph[d][k] = side[d].hi;
+        }
+    }
+    for (int d = 0; d < 3; d++) {
+        for (size_t k = 0; k < nl; k++) {
+            iv_t X = iv_sub(iv_make(pl[d][k], ph[d][k]), iv_point(c[d][k]));
+            xl[d][k] = X.lo, xh[d][k] = X.hi;
+        }
+        for (size_t k = 0; k < nl; k++) {
+            iv_t T = iv_mul(iv_point(a[d][k]), iv_make(xl[d][k], xh[d][k]));
+            tl[d][k] = T.lo, th[d][k] = T.hi;
+        }
+        for (size_t k = 0; k < nl; k++) {
+            iv_t S = iv_add(iv_make(sl[k], sh[k]), iv_make(tl[d][k], th[d][k]));
+            sl[k] = S.lo, sh[k] = S.hi;
+        }
+    }
+    for (size_t k = 0; k < nl; k++) {
+        int64_t cd = sh[k] < 0.0 ? -1 : 0;
+        cd = sl[k] > 0.0 ? 1 : cd; /* ilie_excludes_box tests the lower end first */
+        for (int d = 0; d < 3; d++)
+            cd = xl[d][k] != xl[d][k] ? 3 : cd;
+        cd = l[k].J.lo != l[k].J.lo ? 2 : cd;
+        cd = l[k].J.hi != l[k].J.hi ? 2 : cd;
+        code[k] = cd;
+    }
+}
+
+const ilie_lanes_t K(ilie_lanes) = {KSTR(KERNEL_TARGET), K(ilie_pass), K(ilie_excludes)};

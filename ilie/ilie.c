@@ -63,17 +63,17 @@ static int reserve(ilie_ws_t *ws, uint32_t n)
     return 0;
 }
 
-/* The affine pass of the SIMD path in use (expr/'s choice, tape_simd_name). */
-static ilie_pass_fn *pass_in_use(void)
+/* The lane functions of the SIMD path in use (expr/'s choice, tape_simd_name). */
+static const ilie_lanes_t *lanes_in_use(void)
 {
 #ifdef IVOCT_SIMD_X86
     const char *name = tape_simd_name();
-    if (!strcmp(name, "avx512"))
-        return ilie_pass_avx512;
-    if (!strcmp(name, "avx2"))
-        return ilie_pass_avx2;
+    if (!strcmp(name, ilie_lanes_avx512.name))
+        return &ilie_lanes_avx512;
+    if (!strcmp(name, ilie_lanes_avx2.name))
+        return &ilie_lanes_avx2;
 #endif
-    return ilie_pass_portable;
+    return &ilie_lanes_portable;
 }
 
 /* Centre and noise radius of a cell side: c the rounded midpoint (inside
@@ -162,7 +162,7 @@ static void eval_chunk(ilie_pass_fn *pass, const tape_t *t, double *S, size_t m,
 void ilie_eval(const tape_t *t, ilie_ws_t *ws, size_t n, const iv_box_t *box, ilie_t *out)
 {
     int ok = t && ws && t->n > 0 && reserve(ws, t->n) == 0;
-    ilie_pass_fn *pass = pass_in_use();
+    ilie_pass_fn *pass = lanes_in_use()->pass;
     for (size_t base = 0; base < n; base += ILIE_BATCH) {
         size_t m = n - base < ILIE_BATCH ? n - base : ILIE_BATCH;
         if (ok) {
@@ -219,6 +219,25 @@ bool ilie_excludes_box(const ilie_t *l, const iv_box_t *box, int *sign)
     if (sign)
         *sign = s;
     return ex;
+}
+
+void ilie_excludes_boxes(size_t n, const ilie_t *l, const iv_box_t *box, bool *ex, int *sign)
+{
+    ilie_excludes_fn *excludes = lanes_in_use()->excludes;
+    int64_t code[ILIE_BATCH];
+    for (size_t base = 0; base < n; base += ILIE_BATCH) {
+        size_t m = n - base < ILIE_BATCH ? n - base : ILIE_BATCH;
+        excludes(m, l + base, box + base, code);
+        for (size_t k = 0; k < m; k++) {
+            int s = code[k] == 2 ? 0 : (int)code[k];
+            bool e = code[k] != 0;
+            if (code[k] == 3)
+                e = ilie_excludes_box(&l[base + k], &box[base + k], &s);
+            ex[base + k] = e;
+            if (sign)
+                sign[base + k] = s;
+        }
+    }
 }
 
 /* x · 2^k rounded once, as ldexp: the product by the power of two where 2^k is

@@ -84,6 +84,11 @@ iv_t ilie_range(const ilie_t *l, const iv_box_t *box);
  * False (with *sign = 0) when a zero cannot be excluded. */
 bool ilie_excludes_box(const ilie_t *l, const iv_box_t *box, int *sign);
 
+/* ilie_excludes_box for n ILIEs at once: ex[j] and sign[j] (sign may be NULL)
+ * are what ilie_excludes_box(&l[j], &box[j], &sign[j]) gives, bit for bit,
+ * computed over lanes at the SIMD width of the path in use. */
+void ilie_excludes_boxes(size_t n, const ilie_t *l, const iv_box_t *box, bool *ex, int *sign);
+
 /* Thickness of the slab: w(J)/|a| rounded up.  +inf when a = 0 or J is
  * unbounded; 0 when J is empty (no surface in the cell). */
 double ilie_thickness(const ilie_t *l);

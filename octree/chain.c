@@ -141,10 +141,13 @@ static int ilie_pass(worker_t *w, const tape_t *t, const iv_box_t *boxes, int *o
         ob[j] = boxes[open[j]];
     ilie_eval(t, w->ilie_ws, (size_t)nopen, ob, l);
     w->st.tape_clauses_evaluated += (uint64_t)nopen * t->n;
+    bool ex[CHAIN_BATCH];
+    int sg[CHAIN_BATCH];
+    ilie_excludes_boxes((size_t)nopen, l, ob, ex, sg);
     int still = 0;
     for (int j = 0; j < nopen; j++) {
-        int k = open[j], sign;
-        if (ilie_excludes_box(&l[j], &boxes[k], &sign)) {
+        int k = open[j], sign = sg[j];
+        if (ex[j]) {
             out[k].kind = EMPTY;
             out[k].cls = sign > 0 ? OCT_OUTSIDE : sign < 0 ? OCT_INSIDE : OCT_UNDEFINED;
             w->st.decided_ilie++;

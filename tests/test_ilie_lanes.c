@@ -15,8 +15,9 @@
  *
  * iv_powi_lanes and iv_pow_bound_lanes (expr/lanes.h) must give the bounds of
  * iv_powi and of the binary exponentiation it uses, for random intervals of
- * every sign and scale and every exponent 3..64.  And ilie_ws_bytes must say
- * what a workspace takes from the heap. */
+ * every sign and scale and every exponent 3..64.  ilie_excludes_boxes must
+ * answer as ilie_excludes_box, and ilie_ws_bytes say what a workspace takes
+ * from the heap. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -45,12 +46,12 @@ typedef struct {
 static int machine_paths(path_t out[3])
 {
     int n = 0;
-    out[n++] = (path_t){"portable", ilie_pass_portable};
+    out[n++] = (path_t){"portable", ilie_lanes_portable.pass};
 #ifdef IVOCT_SIMD_X86
     if (tape_simd_available("avx2"))
-        out[n++] = (path_t){"avx2", ilie_pass_avx2};
+        out[n++] = (path_t){"avx2", ilie_lanes_avx2.pass};
     if (tape_simd_available("avx512"))
-        out[n++] = (path_t){"avx512", ilie_pass_avx512};
+        out[n++] = (path_t){"avx512", ilie_lanes_avx512.pass};
 #endif
     return n;
 }
@@ -326,6 +327,74 @@ static void test_powi_lanes(void **state)
     printf("    %ld lanes checked\n", checked);
 }
 
+/* ilie_excludes_boxes against ilie_excludes_box, ILIE by ILIE, on every path
+ * (chosen with tape_simd_select): ILIEs of every expression over random cells
+ * at every scale, and made-up ones (zero, NaN and infinite slopes, empty and
+ * unbounded J); boxes that are the cell, a child of it, or have an infinite
+ * or NaN side. */
+static void test_excludes_boxes(void **state)
+{
+    (void)state;
+    enum { N = 150 }; /* more than ILIE_BATCH: several chunks, a short last one */
+    uint64_t rng = tu_seed(0xe8c1);
+    const char *paths[] = {"portable", "avx2", "avx512"};
+    ilie_t l[N];
+    iv_box_t cell[N], box[N];
+    bool ex[N];
+    int sign[N];
+    long checked = 0, excluded = 0;
+    int rounds = (int)(20 * tu_scale()) + 2;
+    for (size_t e = 0; e < tu_n_op_exprs; e++) {
+        tape_t *t = tu_compile(tu_op_exprs[e]);
+        ilie_ws_t *ws = ilie_ws_new(t->n);
+        assert_non_null(ws);
+        for (int round = 0; round < rounds; round++) {
+            const double *b = tu_op_boxes[(size_t)round % TU_N_OP_BOXES];
+            for (int j = 0; j < N; j++)
+                cell[j] = tu_random_subbox(b, &rng);
+            ilie_eval(t, ws, N, cell, l);
+            for (int j = 0; j < N; j++) {
+                box[j] = cell[j];
+                uint64_t r = tu_next(&rng) % 16;
+                iv_t *side = r < 12 ? NULL : &box[j].x + r % 3;
+                if (r >= 4 && r < 8) /* a child */
+                    box[j].x = iv_make(box[j].x.lo, iv_mid(box[j].x));
+                if (side && r < 14)
+                    side->hi = INFINITY;
+                else if (side)
+                    side->lo = NAN;
+                if (tu_next(&rng) % 16 == 0) { /* made up */
+                    for (int d = 0; d < 3; d++)
+                        l[j].a[d] = tu_next(&rng) % 3 ? random_value(&rng) : 0.0;
+                    double a = random_value(&rng), c = random_value(&rng);
+                    l[j].J = tu_next(&rng) % 4 ? iv_make(a < c ? a : c, a < c ? c : a)
+                                                : iv_empty();
+                }
+            }
+            for (size_t p = 0; p < sizeof paths / sizeof *paths; p++) {
+                if (!tape_simd_available(paths[p]))
+                    continue;
+                assert_int_equal(tape_simd_select(paths[p], NULL), 0);
+                ilie_excludes_boxes(N, l, box, ex, sign);
+                for (int j = 0; j < N; j++) {
+                    int s1;
+                    bool e1 = ilie_excludes_box(&l[j], &box[j], &s1);
+                    if (e1 != ex[j] || s1 != sign[j])
+                        fail_msg("%s, path %s, ILIE %d: ilie_excludes_boxes says %d (sign %d), "
+                                 "ilie_excludes_box %d (sign %d)",
+                                 tu_op_exprs[e], paths[p], j, ex[j], sign[j], e1, s1);
+                    checked++;
+                    excluded += e1;
+                }
+            }
+        }
+        ilie_ws_free(ws);
+        tape_free(t);
+    }
+    tape_simd_select(NULL, NULL);
+    printf("    %ld ILIEs compared, %ld of them excluded\n", checked, excluded);
+}
+
 /* ilie_ws_bytes: what the workspace takes from the heap (glibc's counters of
  * bytes in use, small blocks and mapped ones), up to the allocator's headers.
  * The sanitizers' allocator keeps no such counters: skipped there. */
@@ -354,6 +423,7 @@ int main(void)
         cmocka_unit_test(test_pass_matches_scalar_ops),
         cmocka_unit_test(test_pass_matches_scalar_scenes),
         cmocka_unit_test(test_powi_lanes),
+        cmocka_unit_test(test_excludes_boxes),
         cmocka_unit_test(test_ws_bytes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

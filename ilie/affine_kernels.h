@@ -3,7 +3,7 @@
  *
  * Included once by each affine_kernels_<target>.c, which defines KERNEL_TARGET
  * and is compiled with that target's flags (as expr/kernels.h is); everything
- * here is static except ilie_pass_<target>.
+ * here is static except the table ilie_lanes_<target> (affine.h).
  *
  * The operations that dominate polynomial and CSG tapes (neg, add, sub, mul,
  * sqr, integer powers, min and max) run as loops over the lanes that compute
@@ -108,8 +108,8 @@ static void k_scalar(double *S, tape_op_t op, const tape_clause_t *cl, uint32_t 
  * not finite (it falls back to the interval), or the intersection is empty.
  * (The flags are selects of 64-bit integers, as wide as the doubles: flags
  * made of C's int-valued comparisons keep gcc 12 from vectorising the loop.) */
-static inline int64_t k_finish(double x0, double x1, double x2, double x3, double e, double vl,
-                           double vh, double *ol, double *oh)
+static inline int64_t k_finish(double x0, double x1, double x2, double x3, double e,
+                               double vl, double vh, double *ol, double *oh)
 {
     double s = fabs(x1) + fabs(x2) + fabs(x3) + e;
     double R = aa_fin_up(s);
@@ -123,35 +123,45 @@ static inline int64_t k_finish(double x0, double x1, double x2, double x3, doubl
     return lo > hi ? 1 : slow;
 }
 
-/* The slot pointers of a clause: the output o and operands a, b, array by array. */
+/* A slot's arrays by name: the centre, the noise coefficients, the error term
+ * and the enclosure [lo, hi] of every lane's form. */
 typedef struct {
-    double *restrict o[A_ARRAYS];
-    const double *a[A_ARRAYS], *b[A_ARRAYS];
+    const double *x0, *x1, *x2, *x3, *e, *lo, *hi;
+} k_in_t;
+typedef struct {
+    double *x0, *x1, *x2, *x3, *e, *lo, *hi;
+} k_out_t;
+
+/* A clause's output slot o and operand slots a, b. */
+typedef struct {
+    k_out_t o;
+    k_in_t a, b;
 } k_slots_t;
+
+static inline k_in_t k_in(const double *S, uint32_t i)
+{
+    k_in_t r = {AR(S, i, A_X0), AR(S, i, A_X1), AR(S, i, A_X2), AR(S, i, A_X3),
+                AR(S, i, A_E),  AR(S, i, A_VLO), AR(S, i, A_VHI)};
+    return r;
+}
 
 static inline k_slots_t k_slots(double *S, uint32_t i, uint32_t ia, uint32_t ib)
 {
-    k_slots_t p;
-    for (int c = 0; c < A_ARRAYS; c++) {
-        p.o[c] = AR(S, i, c);
-        p.a[c] = AR(S, ia, c);
-        p.b[c] = AR(S, ib, c);
-    }
+    k_slots_t p = {{AR(S, i, A_X0), AR(S, i, A_X1), AR(S, i, A_X2), AR(S, i, A_X3),
+                    AR(S, i, A_E), AR(S, i, A_VLO), AR(S, i, A_VHI)},
+                   k_in(S, ia), k_in(S, ib)};
     return p;
 }
 
 /* aa_neg: exact. */
 static void k_neg(k_slots_t p, size_t nl)
 {
-    for (int c = 0; c < 4; c++)
-        K_LANES
-        for (size_t k = 0; k < nl; k++)
-            p.o[A_X0 + c][k] = -p.a[A_X0 + c][k];
+    k_in_t a = p.a;
+    k_out_t o = p.o;
     K_LANES
     for (size_t k = 0; k < nl; k++) {
-        p.o[A_E][k] = p.a[A_E][k];
-        p.o[A_VLO][k] = -p.a[A_VHI][k];
-        p.o[A_VHI][k] = -p.a[A_VLO][k];
+        o.x0[k] = -a.x0[k], o.x1[k] = -a.x1[k], o.x2[k] = -a.x2[k], o.x3[k] = -a.x3[k];
+        o.e[k] = a.e[k], o.lo[k] = -a.hi[k], o.hi[k] = -a.lo[k];
     }
 }
 
@@ -160,49 +170,38 @@ static void k_neg(k_slots_t p, size_t nl)
 static void k_add(k_slots_t p, size_t nl, int sub, int64_t *restrict slow)
 {
     const double sg = sub ? -1.0 : 1.0;
-    const double *a0 = p.a[A_X0], *a1 = p.a[A_X1], *a2 = p.a[A_X2], *a3 = p.a[A_X3];
-    const double *b0 = p.b[A_X0], *b1 = p.b[A_X1], *b2 = p.b[A_X2], *b3 = p.b[A_X3];
-    const double *ae = p.a[A_E], *be = p.b[A_E];
-    const double *al = p.a[A_VLO], *ah = p.a[A_VHI];
+    k_in_t a = p.a, b = p.b;
+    k_out_t o = p.o;
     /* the interval of b, or of −b = [−b.hi, −b.lo] */
-    const double *bl = p.b[sub ? A_VHI : A_VLO], *bh = p.b[sub ? A_VLO : A_VHI];
-    double *restrict z0 = p.o[A_X0], *restrict z1 = p.o[A_X1], *restrict z2 = p.o[A_X2];
-    double *restrict z3 = p.o[A_X3], *restrict ze = p.o[A_E];
-    double *restrict zl = p.o[A_VLO], *restrict zh = p.o[A_VHI];
+    const double *bl = sub ? b.hi : b.lo, *bh = sub ? b.lo : b.hi;
     K_LANES
     for (size_t k = 0; k < nl; k++) {
         /* sg * v is exact: a sign flip or nothing */
-        double blo = sg * bl[k], bhi = sg * bh[k];
-        double vl = iv_add_down(al[k], blo), vh = iv_add_up(ah[k], bhi);
-        double x0 = a0[k] + sg * b0[k], x1 = a1[k] + sg * b1[k];
-        double x2 = a2[k] + sg * b2[k], x3 = a3[k] + sg * b3[k];
+        double vl = iv_add_down(a.lo[k], sg * bl[k]), vh = iv_add_up(a.hi[k], sg * bh[k]);
+        double x0 = a.x0[k] + sg * b.x0[k], x1 = a.x1[k] + sg * b.x1[k];
+        double x2 = a.x2[k] + sg * b.x2[k], x3 = a.x3[k] + sg * b.x3[k];
         double s = 0.0;
         s += fabs(x0);
         s += fabs(x1);
         s += fabs(x2);
         s += fabs(x3);
-        double e = aa_fin_up(ae[k] + be[k] + U * s);
-        z0[k] = x0, z1[k] = x1, z2[k] = x2, z3[k] = x3, ze[k] = e;
-        slow[k] = k_finish(x0, x1, x2, x3, e, vl, vh, &zl[k], &zh[k]);
+        double e = aa_fin_up(a.e[k] + b.e[k] + U * s);
+        o.x0[k] = x0, o.x1[k] = x1, o.x2[k] = x2, o.x3[k] = x3, o.e[k] = e;
+        slow[k] = k_finish(x0, x1, x2, x3, e, vl, vh, &o.lo[k], &o.hi[k]);
     }
 }
 
 /* aa_mul (see affine.c for the error terms). */
 static void k_mul(k_slots_t p, size_t nl, int64_t *restrict slow)
 {
-    const double *a0 = p.a[A_X0], *a1 = p.a[A_X1], *a2 = p.a[A_X2], *a3 = p.a[A_X3];
-    const double *b0 = p.b[A_X0], *b1 = p.b[A_X1], *b2 = p.b[A_X2], *b3 = p.b[A_X3];
-    const double *ae = p.a[A_E], *be = p.b[A_E];
-    const double *al = p.a[A_VLO], *ah = p.a[A_VHI], *bl = p.b[A_VLO], *bh = p.b[A_VHI];
-    double *restrict z0 = p.o[A_X0], *restrict z1 = p.o[A_X1], *restrict z2 = p.o[A_X2];
-    double *restrict z3 = p.o[A_X3], *restrict ze = p.o[A_E];
-    double *restrict zl = p.o[A_VLO], *restrict zh = p.o[A_VHI];
+    k_in_t a = p.a, b = p.b;
+    k_out_t o = p.o;
     K_LANES
     for (size_t k = 0; k < nl; k++) {
-        iv_t v = iv_mul(iv_make(al[k], ah[k]), iv_make(bl[k], bh[k]));
-        double x0 = a0[k], x1 = a1[k], x2 = a2[k], x3 = a3[k];
-        double y0 = b0[k], y1 = b1[k], y2 = b2[k], y3 = b3[k];
-        double ex = ae[k], ey = be[k];
+        iv_t v = iv_mul(iv_make(a.lo[k], a.hi[k]), iv_make(b.lo[k], b.hi[k]));
+        double x0 = a.x0[k], x1 = a.x1[k], x2 = a.x2[k], x3 = a.x3[k];
+        double y0 = b.x0[k], y1 = b.x1[k], y2 = b.x2[k], y3 = b.x3[k];
+        double ex = a.e[k], ey = b.e[k];
         double X1 = fabs(x1), X2 = fabs(x2), X3 = fabs(x3);
         double Y1 = fabs(y1), Y2 = fabs(y2), Y3 = fabs(y3);
         double q1 = x1 * y1, q2 = x2 * y2, q3 = x3 * y3;
@@ -221,25 +220,22 @@ static void k_mul(k_slots_t p, size_t nl, int64_t *restrict slow)
                    ey * (X1 + X2 + X3);
         e += U * (fabs(p0) + fabs(c0)) + 2.0 * U * aq + 2.0 * U * rnd;
         e = aa_fin_up(e);
-        z0[k] = c0, z1[k] = c1, z2[k] = c2, z3[k] = c3, ze[k] = e;
+        o.x0[k] = c0, o.x1[k] = c1, o.x2[k] = c2, o.x3[k] = c3, o.e[k] = e;
         int64_t unbounded = ex <= DBL_MAX ? 0 : 1;
         unbounded = ey <= DBL_MAX ? unbounded : 1;
-        slow[k] = k_finish(c0, c1, c2, c3, e, v.lo, v.hi, &zl[k], &zh[k]) | unbounded;
+        slow[k] = k_finish(c0, c1, c2, c3, e, v.lo, v.hi, &o.lo[k], &o.hi[k]) | unbounded;
     }
 }
 
 /* aa_sqr. */
 static void k_sqr(k_slots_t p, size_t nl, int64_t *restrict slow)
 {
-    const double *a0 = p.a[A_X0], *a1 = p.a[A_X1], *a2 = p.a[A_X2], *a3 = p.a[A_X3];
-    const double *ae = p.a[A_E], *al = p.a[A_VLO], *ah = p.a[A_VHI];
-    double *restrict z0 = p.o[A_X0], *restrict z1 = p.o[A_X1], *restrict z2 = p.o[A_X2];
-    double *restrict z3 = p.o[A_X3], *restrict ze = p.o[A_E];
-    double *restrict zl = p.o[A_VLO], *restrict zh = p.o[A_VHI];
+    k_in_t a = p.a;
+    k_out_t o = p.o;
     K_LANES
     for (size_t k = 0; k < nl; k++) {
-        iv_t v = iv_sqr(iv_make(al[k], ah[k]));
-        double x0 = a0[k], x1 = a1[k], x2 = a2[k], x3 = a3[k], ex = ae[k];
+        iv_t v = iv_sqr(iv_make(a.lo[k], a.hi[k]));
+        double x0 = a.x0[k], x1 = a.x1[k], x2 = a.x2[k], x3 = a.x3[k], ex = a.e[k];
         double R = fabs(x1) + fabs(x2) + fabs(x3) + ex;
         double h = 0.5 * (R * R);
         double Rup = aa_fin_up(R);
@@ -252,10 +248,10 @@ static void k_sqr(k_slots_t p, size_t nl, int64_t *restrict slow)
         double c0 = p0 + h, c1 = t * x1, c2 = t * x2, c3 = t * x3;
         double r = fabs(p0) + fabs(c0) + fabs(c1) + fabs(c2) + fabs(c3);
         double e = aa_fin_up(fabs(t) * ex + quad + U * r);
-        z0[k] = c0, z1[k] = c1, z2[k] = c2, z3[k] = c3, ze[k] = e;
+        o.x0[k] = c0, o.x1[k] = c1, o.x2[k] = c2, o.x3[k] = c3, o.e[k] = e;
         int64_t odd = ex <= DBL_MAX ? 0 : 1;
         odd = w != w ? 1 : odd;
-        slow[k] = k_finish(c0, c1, c2, c3, e, v.lo, v.hi, &zl[k], &zh[k]) | odd;
+        slow[k] = k_finish(c0, c1, c2, c3, e, v.lo, v.hi, &o.lo[k], &o.hi[k]) | odd;
     }
 }
 
@@ -263,51 +259,41 @@ static void k_sqr(k_slots_t p, size_t nl, int64_t *restrict slow)
  * decides the branch (its range on one side of 0, where correlated terms have
  * cancelled): the chosen operand, its enclosure narrowed by the interval
  * result.  An undecided branch (the kink's chord), an empty operand, and the
- * exits of d's own computation (aa_sub's, as in k_add) go to the scalar
+ * exits of d's own computation (k_add's, as aa_sub) go to the scalar
  * function.  The selects compare doubles and stay one condition each: flags
  * built from C's int comparisons keep gcc 12 from vectorising the loop. */
 static void k_minmax(k_slots_t p, size_t nl, int is_max, int64_t *restrict slow)
 {
-    const double *a0 = p.a[A_X0], *a1 = p.a[A_X1], *a2 = p.a[A_X2], *a3 = p.a[A_X3];
-    const double *b0 = p.b[A_X0], *b1 = p.b[A_X1], *b2 = p.b[A_X2], *b3 = p.b[A_X3];
-    const double *ae = p.a[A_E], *be = p.b[A_E];
-    const double *al = p.a[A_VLO], *ah = p.a[A_VHI], *bl = p.b[A_VLO], *bh = p.b[A_VHI];
-    double *restrict z0 = p.o[A_X0], *restrict z1 = p.o[A_X1], *restrict z2 = p.o[A_X2];
-    double *restrict z3 = p.o[A_X3], *restrict ze = p.o[A_E];
-    double *restrict zl = p.o[A_VLO], *restrict zh = p.o[A_VHI];
+    /* d = aa_sub(a, b) into scratch arrays, its lanes' flags into slow */
+    double d[A_ARRAYS][B];
+    k_slots_t dp = {{d[A_X0], d[A_X1], d[A_X2], d[A_X3], d[A_E], d[A_VLO], d[A_VHI]}, p.a, p.b};
+    k_add(dp, nl, 1, slow);
+    k_in_t a = p.a, b = p.b;
+    k_out_t o = p.o;
+    const double *dl = d[A_VLO], *dh = d[A_VHI];
     /* min takes a where d <= 0 and b where d >= 0; max the other way round:
      * with σ = ±1, a where σ·d's upper end is <= 0, b where its lower end is >= 0 */
     K_LANES
     for (size_t k = 0; k < nl; k++) {
         /* v: iv_min or iv_max of non-empty operands */
-        double vl = is_max ? (al[k] > bl[k] ? al[k] : bl[k]) : (al[k] < bl[k] ? al[k] : bl[k]);
-        double vh = is_max ? (ah[k] > bh[k] ? ah[k] : bh[k]) : (ah[k] < bh[k] ? ah[k] : bh[k]);
-        /* d = aa_sub(a, b) */
-        double dvl = iv_add_down(al[k], -bh[k]), dvh = iv_add_up(ah[k], -bl[k]);
-        double x0 = a0[k] - b0[k], x1 = a1[k] - b1[k], x2 = a2[k] - b2[k], x3 = a3[k] - b3[k];
-        double s = 0.0;
-        s += fabs(x0);
-        s += fabs(x1);
-        s += fabs(x2);
-        s += fabs(x3);
-        double e = aa_fin_up(ae[k] + be[k] + U * s);
-        double dl, dh;
-        int64_t odd = k_finish(x0, x1, x2, x3, e, dvl, dvh, &dl, &dh);
-        double up = is_max ? -dl : dh, down = is_max ? -dh : dl; /* σ·d */
+        double al = a.lo[k], ah = a.hi[k], bl = b.lo[k], bh = b.hi[k];
+        double vl = is_max ? (al > bl ? al : bl) : (al < bl ? al : bl);
+        double vh = is_max ? (ah > bh ? ah : bh) : (ah < bh ? ah : bh);
+        double up = is_max ? -dl[k] : dh[k], down = is_max ? -dh[k] : dl[k]; /* σ·d */
         int take_a = up <= 0.0;
+        int64_t odd = slow[k];
         odd = take_a ? odd : (down >= 0.0 ? odd : 1);
-        double c0 = take_a ? a0[k] : b0[k], c1 = take_a ? a1[k] : b1[k];
-        double c2 = take_a ? a2[k] : b2[k], c3 = take_a ? a3[k] : b3[k];
-        double ce = take_a ? ae[k] : be[k];
-        double cl = take_a ? al[k] : bl[k], ch = take_a ? ah[k] : bh[k];
+        double cl = take_a ? al : bl, ch = take_a ? ah : bh;
         /* narrow() by v */
         double lo = cl > vl ? cl : vl, hi = ch < vh ? ch : vh;
         odd = lo > hi ? 1 : odd;
-        odd = al[k] != al[k] ? 1 : odd;
-        odd = ah[k] != ah[k] ? 1 : odd;
-        odd = bl[k] != bl[k] ? 1 : odd;
-        odd = bh[k] != bh[k] ? 1 : odd;
-        z0[k] = c0, z1[k] = c1, z2[k] = c2, z3[k] = c3, ze[k] = ce, zl[k] = lo, zh[k] = hi;
+        odd = al != al ? 1 : odd;
+        odd = ah != ah ? 1 : odd;
+        odd = bl != bl ? 1 : odd;
+        odd = bh != bh ? 1 : odd;
+        o.x0[k] = take_a ? a.x0[k] : b.x0[k], o.x1[k] = take_a ? a.x1[k] : b.x1[k];
+        o.x2[k] = take_a ? a.x2[k] : b.x2[k], o.x3[k] = take_a ? a.x3[k] : b.x3[k];
+        o.e[k] = take_a ? a.e[k] : b.e[k], o.lo[k] = lo, o.hi[k] = hi;
         slow[k] = odd;
     }
 }
@@ -320,11 +306,9 @@ static void k_minmax(k_slots_t p, size_t nl, int is_max, int64_t *restrict slow)
  * pieces), a flat range and every fallback are left to the scalar aa_powi. */
 static void k_powi(k_slots_t p, size_t nl, unsigned n, int64_t *restrict slow)
 {
-    const double *a0 = p.a[A_X0], *a1 = p.a[A_X1], *a2 = p.a[A_X2], *a3 = p.a[A_X3];
-    const double *ae = p.a[A_E], *al = p.a[A_VLO], *ah = p.a[A_VHI];
-    double *restrict z0 = p.o[A_X0], *restrict z1 = p.o[A_X1], *restrict z2 = p.o[A_X2];
-    double *restrict z3 = p.o[A_X3], *restrict ze = p.o[A_E];
-    double *restrict zl = p.o[A_VLO], *restrict zh = p.o[A_VHI];
+    k_in_t A = p.a;
+    k_out_t o = p.o;
+    const double *al = A.lo, *ah = A.hi;
     const int odd = n & 1u;
     const double nd = (double)n;
     const double cvx_above = odd ? 0.0 : -INFINITY; /* x^n is convex where x > this */
@@ -408,16 +392,16 @@ static void k_powi(k_slots_t p, size_t nl, unsigned n, int64_t *restrict slow)
         double be = 0.5 * m + 0.5 * M;
         double du = iv_up(M - be), dd = iv_up(be - m);
         double de = du > dd ? du : dd; /* fmax: both are numbers on this path */
-        double x0 = a0[k];
+        double x0 = A.x0[k];
         double p0 = a * x0;
-        double c0 = p0 + be, c1 = a * a1[k], c2 = a * a2[k], c3 = a * a3[k];
+        double c0 = p0 + be, c1 = a * A.x1[k], c2 = a * A.x2[k], c3 = a * A.x3[k];
         double r = fabs(p0) + fabs(c0) + fabs(c1) + fabs(c2) + fabs(c3);
-        double e = aa_fin_up(fabs(a) * ae[k] + de + U * r);
-        z0[k] = c0, z1[k] = c1, z2[k] = c2, z3[k] = c3, ze[k] = e;
+        double e = aa_fin_up(fabs(a) * A.e[k] + de + U * r);
+        o.x0[k] = c0, o.x1[k] = c1, o.x2[k] = c2, o.x3[k] = c3, o.e[k] = e;
         /* the scalar path's other exits: an unbounded operand, an unbounded or
          * flat range, odd n across 0, a slope that is not a number, δ not
          * finite or no tighter than the interval */
-        odd_path = ae[k] <= DBL_MAX ? odd_path : 1;
+        odd_path = A.e[k] <= DBL_MAX ? odd_path : 1;
         odd_path = l >= -DBL_MAX ? odd_path : 1;
         odd_path = h <= DBL_MAX ? odd_path : 1;
         odd_path = h > l ? odd_path : 1;
@@ -426,7 +410,7 @@ static void k_powi(k_slots_t p, size_t nl, unsigned n, int64_t *restrict slow)
         odd_path = a <= DBL_MAX ? odd_path : 1;
         odd_path = de <= DBL_MAX ? odd_path : 1;
         odd_path = de >= 0.5 * vh[k] - 0.5 * vl[k] ? 1 : odd_path;
-        slow[k] = k_finish(c0, c1, c2, c3, e, vl[k], vh[k], &zl[k], &zh[k]) | odd_path;
+        slow[k] = k_finish(c0, c1, c2, c3, e, vl[k], vh[k], &o.lo[k], &o.hi[k]) | odd_path;
     }
 }
 

@@ -29,6 +29,11 @@ static const char SYNOPSIS[] =
     "refine, as ivoct build does) and each ray is searched only over the surface\n"
     "leaves it meets, front to back; the build time is reported apart.\n"
     "\n"
+    "With a point light (--light, or the scene's [render] light) each hit also\n"
+    "casts a shadow ray to the light through the same octree: any root of f on\n"
+    "the way, or one the certified tests cannot exclude, puts the hit in shadow\n"
+    "(ray/README.md, \"Shadows\"); without one, a light fixed to the camera.\n"
+    "\n"
     "Under mpirun (docs/cluster.md) each rank loads or builds the octree; one\n"
     "image (fewer frames than ranks) is split into 16x16 tiles dealt out to the\n"
     "ranks and gathered on rank 0, else the frames are dealt out; the files are\n"
@@ -160,7 +165,8 @@ typedef struct octree_info {
 
 static int write_stats(io_group_t *g, const char *path, const scene_t *s, ray_method_t method, int width,
                        int height, int frames, const ray_stats_t *st, const octree_info_t *oi,
-                       const build_stats_extra_t *extra, ivoct_error_t *err)
+                       const ray_render_opts_t *ro, const build_stats_extra_t *extra,
+                       ivoct_error_t *err)
 {
     io_file_t f;
     if (io_open(&f, path, err))
@@ -185,6 +191,20 @@ static int write_stats(io_group_t *g, const char *path, const scene_t *s, ray_me
             "  \"leaves_visited\": %llu,\n  \"threads\": %d",
             (unsigned long long)st->tape_evals, tape_simd_name(), (unsigned long long)st->segments,
             (unsigned long long)st->leaves, st->threads);
+    fputs(",\n  \"light\": ", o);
+    if (ro->light_on) {
+        for (int a = 0; a < 3; a++) {
+            fputs(a ? ", " : "[", o);
+            cli_json_double(o, ro->light[a]);
+        }
+        fprintf(o,
+                "],\n  \"shadow_rays\": %llu,\n  \"shadowed\": %llu,\n"
+                "  \"shadow_undecided\": %llu,\n  \"shadow_tape_evals\": %llu",
+                (unsigned long long)st->shadow_rays, (unsigned long long)st->shadowed,
+                (unsigned long long)st->shadow_undecided, (unsigned long long)st->shadow_evals);
+    } else {
+        fputs("null", o);
+    }
     if (oi->tree) {
         const oct_tree_t *t = oi->tree;
         fputs(",\n  \"octree_source\": ", o);
@@ -255,7 +275,7 @@ static int same_surface(const scene_t *s, const oct_tree_t *t, const oct_source_
 static double image_bytes(int width, int height)
 {
     const double per_pixel = sizeof(double) * 10 /* t, point, normal, dir */ +
-                             3 /* rgb */ + 2 /* hit, kind */;
+                             3 /* rgb */ + 3 /* hit, kind, shadow */;
     return per_pixel * width * height;
 }
 
@@ -300,8 +320,9 @@ int cmd_render(int argc, char **argv)
     long threads = 0, frames = 1;
     int size[2] = {0, 0};
     size_t max_memory = 0;
+    double light[3] = {0, 0, 0};
     bool quiet = false, no_octree = false, no_leaf_tapes = false, method_given = false,
-         size_given = false;
+         size_given = false, light_given = false, no_light = false;
 
     const cli_option_t options[] = {
         {.name = "--help", .alias = "-h", .kind = CLI_HELP},
@@ -324,6 +345,13 @@ int cmd_render(int argc, char **argv)
         {.name = "--size", .kind = CLI_CUSTOM, .target = size, .parse = parse_wxh,
          .given = &size_given, .arg = "WxH",
          .help = "image size in pixels (scene [camera] size, default 300x300)"},
+        {.name = "--light", .kind = CLI_DOUBLE, .target = light, .nargs = 3, .given = &light_given,
+         .arg = "X Y Z",
+         .help = "a point light at (X, Y, Z): every hit casts a certified\n"
+                 "shadow ray to it; .vti gains the array shadow (scene\n"
+                 "[render] light, default none: a light fixed to the camera)"},
+        {.name = "--no-light", .kind = CLI_FLAG, .target = &no_light,
+         .help = "ignore the scene's [render] light: no shadows"},
         {.name = "--threads", .kind = CLI_INT, .target = &threads, .lo = 1, .hi = 1024, .arg = "N",
          .help = "threads (default: all cores); the outputs are the same for any N"},
         {.name = "--max-memory", .kind = CLI_CUSTOM, .target = &max_memory,
@@ -334,14 +362,16 @@ int cmd_render(int argc, char **argv)
          .help = "the shaded image, 8-bit RGB"},
         {.name = "--vti", .kind = CLI_STRING, .target = &vti, .arg = "F",
          .help = "the render buffers as VTK ImageData: per pixel t (NaN on a\n"
-                 "miss), hit, point, normal, dir; camera and method as field data"},
+                 "miss), hit, point, normal, dir (and shadow with a light);\n"
+                 "camera, method (and light) as field data"},
         {.name = "--frames", .kind = CLI_INT, .target = &frames, .lo = 1, .hi = 100000, .arg = "N",
          .help = "a turntable of N views about the camera's up axis through the\n"
                  "target, written as F_000.png, F_001.png, ... (default 1: F)"},
         {.name = "--stats", .kind = CLI_STRING, .target = &stats, .arg = "F.json",
          .help = "statistics: method, octree, width, height, rays, hits,\n"
-                 "time_s (render only), tape_evals, leaves_visited,\n"
-                 "build_time_s (when built here), ... (totals over frames)"},
+                 "time_s (render only), tape_evals, leaves_visited, light,\n"
+                 "shadow_rays, shadowed, shadow_undecided, build_time_s (when\n"
+                 "built here), ... (totals over frames)"},
         {.name = "--quiet", .alias = "-q", .kind = CLI_FLAG, .target = &quiet,
          .help = "no summary on stdout, no progress bar"},
         {0},
@@ -354,6 +384,8 @@ int cmd_render(int argc, char **argv)
         return cli_usage_error("render", "missing the scene file");
     if (octree && no_octree)
         return cli_usage_error("render", "--octree and --no-octree exclude each other");
+    if (light_given && no_light)
+        return cli_usage_error("render", "--light and --no-light exclude each other");
     scene_t s;
     ivoct_error_t err;
     ivoct_error_clear(&err);
@@ -480,10 +512,22 @@ int cmd_render(int argc, char **argv)
     ray_box_source_t bs;
     ray_octree_source_t trav;
     ray_source_t src = tree ? ray_octree_source(&trav, tree) : ray_box_source(&bs, s.box);
+    ray_render_opts_t ro;
+    ray_render_opts_default(&ro);
+    ro.method = method;
+    ro.threads = (int)threads;
+    if (light_given || (s.has_light && !no_light)) {
+        ro.light_on = 1;
+        memcpy(ro.light, light_given ? light : s.light, sizeof ro.light);
+    }
     if (tree && !no_leaf_tapes && tape_has_choices(s.tape)) {
-        /* the margin of the camera covers every turntable view of it */
+        /* the margin of the camera covers every turntable view of it; the
+         * shadow rays need the light's */
+        double margin = ray_tape_margin(&cam0, s.box);
+        if (ro.light_on)
+            margin = fmax(margin, ray_light_tape_margin(ro.light, s.box));
         double t0 = omp_get_wtime();
-        if (oct_leaf_tapes_build(tree, s.tape, ray_tape_margin(&cam0, s.box),
+        if (oct_leaf_tapes_build(tree, s.tape, margin,
                                  LEAF_TAPES_MAX_RATIO, &leaf_tapes, &err)) {
             fprintf(stderr, "ivoct render: %s\n", err.msg);
             rc = EXIT_RUNTIME;
@@ -502,10 +546,6 @@ int cmd_render(int argc, char **argv)
             oi.leaf_tapes_used = 1;
         }
     }
-    ray_render_opts_t ro;
-    ray_render_opts_default(&ro);
-    ro.method = method;
-    ro.threads = (int)threads;
     {
         double dx = s.box[1] - s.box[0], dy = s.box[3] - s.box[2], dz = s.box[5] - s.box[4];
         double diag = sqrt(dx * dx + dy * dy + dz * dz);
@@ -567,6 +607,10 @@ int cmd_render(int argc, char **argv)
         total.tape_evals += st.tape_evals;
         total.segments += st.segments;
         total.leaves += st.leaves;
+        total.shadow_rays += st.shadow_rays;
+        total.shadowed += st.shadowed;
+        total.shadow_undecided += st.shadow_undecided;
+        total.shadow_evals += st.shadow_evals;
         total.time_s += st.time_s;
         total.threads = st.threads;
         if (rank > 0 && parts > 1)
@@ -589,7 +633,7 @@ int cmd_render(int argc, char **argv)
     }
 #endif
     if (stats && rank == 0 &&
-        write_stats(&group, stats, &s, method, width, height, (int)frames, &total, &oi,
+        write_stats(&group, stats, &s, method, width, height, (int)frames, &total, &oi, &ro,
                     mpi_stats.write ? &mpi_stats : NULL, &err)) {
         fprintf(stderr, "ivoct render: %s\n", err.msg);
         rc = EXIT_RUNTIME;
@@ -622,11 +666,16 @@ int cmd_render(int argc, char **argv)
             snprintf(over, sizeof over, ", %d ranks (%s), balance %.2f", ranks,
                      parts > 1 ? "each frame in tiles" : "frames dealt out", mr.balance);
 #endif
-        printf("%s: %s, %dx%d%s, %s: %llu hits of %llu rays (%llu tangent), %llu leaves "
+        char shadows[128] = "";
+        if (ro.light_on)
+            snprintf(shadows, sizeof shadows, ", %llu in shadow (%llu undecided)",
+                     (unsigned long long)(total.shadowed + total.shadow_undecided),
+                     (unsigned long long)total.shadow_undecided);
+        printf("%s: %s, %dx%d%s, %s: %llu hits of %llu rays (%llu tangent)%s, %llu leaves "
                "searched, render %.3f s, %d thread%s%s\n",
                s.source.name, ray_method_name(method), width, height,
                frames > 1 ? " per frame" : "", how, (unsigned long long)total.hits,
-               (unsigned long long)total.rays, (unsigned long long)total.tangent_hits,
+               (unsigned long long)total.rays, (unsigned long long)total.tangent_hits, shadows,
                (unsigned long long)total.leaves, total.time_s, total.threads,
                total.threads > 1 ? "s" : "", over);
     }

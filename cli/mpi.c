@@ -902,7 +902,8 @@ void cli_mpi_render_reduce(cli_mpi_render_t *r, ray_stats_t *total)
     uint64_t sent = r->gather_bytes;
     MPI_Reduce(&sent, &r->gather_bytes, 1, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
     uint64_t *counts[] = {&total->rays, &total->hits, &total->tangent_hits, &total->tape_evals,
-                          &total->segments, &total->leaves};
+                          &total->segments, &total->leaves, &total->shadow_rays,
+                          &total->shadowed, &total->shadow_undecided, &total->shadow_evals};
     for (size_t i = 0; i < sizeof counts / sizeof *counts; i++)
         *counts[i] = cli_mpi_sum_u64(*counts[i]);
     total->threads = (int)cli_mpi_sum_u64((uint64_t)total->threads);

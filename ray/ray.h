@@ -246,12 +246,32 @@ ray_source_t ray_octree_source(ray_octree_source_t *os, const oct_tree_t *tree);
  * times a bound on |o_i| + 2t, which exceeds them by far.  Rounded up. */
 double ray_tape_margin(const ray_camera_t *cam, const double box[6]);
 
+/* The same for the shadow rays of a point light (ray_render_opts_t.light):
+ * they start at the light and end in box, t in [0, 1] along q - light
+ * (ray_shadow_origin), so the margin is 2^-40 times a bound on
+ * |o_i| + 2|t·d_i| from the box and the light.  A render with a light needs the larger of the two margins. */
+double ray_light_tape_margin(const double light[3], const double box[6]);
+
 /* ---- rendering -------------------------------------------------------------------- */
 
 /* The buffers of docs/DESIGN.md §4, row-major with row 0 the top of the image:
  * pixel (col, row) at index row*width + col, 3-vectors at 3*index. */
+/* What the shadow ray of a hit found (ray_image_t.shadow; see "Shadows" in
+ * ray/README.md).  Misses, and every pixel of an image rendered without a
+ * light, are RAY_LIT. */
+typedef enum ray_shadow {
+    RAY_LIT = 0,          /* certified: the segment to the light meets no surface */
+    RAY_SHADOWED,         /* a certified root (sign change) on the segment */
+    RAY_SHADOW_UNDECIDED  /* counted as shadow: a root the tests could not certify
+                           * nor exclude (a tangency, a zero within the rounding
+                           * of f, the budget), or no origin for the shadow ray
+                           * could be placed before the first root */
+} ray_shadow_t;
+
 typedef struct ray_image {
     int width, height;
+    int lit;              /* set by ray_render: rendered with a point light (below) */
+    double light[3];      /* the light, when lit */
     double *t;            /* distance along dir to the first hit; NaN on a miss */
     unsigned char *hit;   /* 1 hit, 0 miss */
     unsigned char *kind;  /* ray_hit_kind_t */
@@ -260,6 +280,7 @@ typedef struct ray_image {
                            * fallback at singular points); NaN on a miss */
     double *dir;          /* the unit ray direction */
     unsigned char *rgb;   /* the shaded image, 8-bit sRGB */
+    unsigned char *shadow; /* ray_shadow_t */
 } ray_image_t;
 
 int ray_image_alloc(ray_image_t *img, int width, int height, ivoct_error_t *err);
@@ -277,7 +298,7 @@ void ray_image_free(ray_image_t *img);
  * (RAY_PACK_ALL, RAY_PIXEL_BYTES a pixel) or the shaded image alone
  * (RAY_PACK_RGB, 3 bytes a pixel). */
 #define RAY_TILE 16
-#define RAY_PIXEL_BYTES (10 * sizeof(double) + 5) /* t point normal dir, hit kind rgb */
+#define RAY_PIXEL_BYTES (10 * sizeof(double) + 6) /* t point normal dir, hit kind shadow rgb */
 typedef enum ray_pack { RAY_PACK_ALL, RAY_PACK_RGB } ray_pack_t;
 
 /* The bytes of one packed pixel. */
@@ -300,6 +321,10 @@ typedef struct ray_stats {
     uint64_t tape_evals;   /* tape passes (see ray_result_t.evals), shading included */
     uint64_t segments;     /* segments the root finder ran on */
     uint64_t leaves;       /* what the sources counted */
+    /* with a light: shadow rays cast (one per hit), their outcomes (the rest
+     * are lit), and the tape passes and source segments they took (part of
+     * tape_evals, segments and leaves above) */
+    uint64_t shadow_rays, shadowed, shadow_undecided, shadow_evals;
     double time_s;         /* wall clock of ray_render */
     int threads;           /* threads used */
 } ray_stats_t;
@@ -311,6 +336,11 @@ typedef struct ray_render_opts {
     /* Render only part `part` of `parts` (above; parts <= 1: the whole image,
      * the default); the rest of the buffers is left as it was. */
     int part, parts;
+    /* A point light (light_on): every hit casts a shadow ray to it through the
+     * same source, and is shaded by it; else a light fixed to the camera
+     * lights the image and no shadow ray is cast. */
+    int light_on;
+    double light[3];
     /* Called now and then with the fraction done, from one thread only; may be NULL. */
     void (*progress)(void *ctx, double fraction);
     void *progress_ctx;
@@ -327,10 +357,22 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
                const ray_render_opts_t *opts, ray_image_t *img, ray_stats_t *stats,
                ivoct_error_t *err);
 
-/* Lambert + ambient shading of one pixel: normal n at a hit seen along d (a
- * two-sided light fixed to the camera); background where !hit. */
-void ray_shade(const ray_camera_t *cam, const double d[3], const double n[3], int hit,
+/* Lambert + ambient shading of one pixel: normal n at a hit seen along d,
+ * the side of the surface facing the eye lit; background where !hit.  The
+ * light: a point light at `light` seen from the hit point p when light is not
+ * NULL (ambient only when shadowed), else a light fixed to the camera. */
+void ray_shade(const ray_camera_t *cam, const double *light, const double p[3],
+               const double d[3], const double n[3], int hit, int shadowed,
                unsigned char rgb[3]);
+
+/* The shadow ray of a hit at distance t along the primary ray eye + s·d:
+ * its end q = ray_point(eye, d, t_q) with t_q = t - 2^-20 t, a little in
+ * front of the hit; returns t_q.  The renderer casts it only when the primary
+ * search certified that no root lies before t_q (the hit's bracket starts
+ * after it), so q is on the eye's side of the surface.  The shadow ray is
+ * light + s·(q - light), s in [0, 1], q - light rounded per axis: the hit is
+ * in shadow when f has a root on it.  See ray/README.md, "Shadows". */
+double ray_shadow_origin(const double eye[3], const double d[3], double t, double q[3]);
 
 /* ---- output -------------------------------------------------------------------------- */
 
@@ -338,8 +380,9 @@ void ray_shade(const ray_camera_t *cam, const double d[3], const double n[3], in
 int ray_write_png(FILE *f, const ray_image_t *img, ivoct_error_t *err);
 
 /* VTK XML ImageData (.vti), one point per pixel, point arrays t, hit, point,
- * normal, dir (Float64, base64 "binary" format), with the camera (eye, target,
- * up, fov) and the method as field data.  VTK's y axis points up: image row r
+ * normal, dir and, when img->lit, shadow (1 shadowed or undecided, 0 lit)
+ * (Float64, base64 "binary" format), with the camera (eye, target, up, fov),
+ * the method and, when lit, the light as field data.  VTK's y axis points up: image row r
  * is VTK row height-1-r, so the data shows upright. */
 int ray_write_vti(FILE *f, const ray_image_t *img, const ray_camera_t *cam,
                   const char *method, ivoct_error_t *err);

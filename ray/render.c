@@ -65,8 +65,9 @@ int ray_image_alloc(ray_image_t *img, int width, int height, ivoct_error_t *err)
     img->normal = malloc(3 * n * sizeof *img->normal);
     img->dir = malloc(3 * n * sizeof *img->dir);
     img->rgb = malloc(3 * n);
+    img->shadow = calloc(n, 1);
     if (!img->t || !img->hit || !img->kind || !img->point || !img->normal || !img->dir ||
-        !img->rgb) {
+        !img->rgb || !img->shadow) {
         ray_image_free(img);
         ivoct_error_set(err, "out of memory for a %dx%d image", width, height);
         return 1;
@@ -83,6 +84,7 @@ void ray_image_free(ray_image_t *img)
     free(img->normal);
     free(img->dir);
     free(img->rgb);
+    free(img->shadow);
     memset(img, 0, sizeof *img);
 }
 
@@ -126,6 +128,7 @@ static void pixel_pack(const ray_image_t *img, size_t i, ray_pack_t what, unsign
         memcpy(b, img->dir + 3 * i, 3 * sizeof(double)), b += 3 * sizeof(double);
         *b++ = img->hit[i];
         *b++ = img->kind[i];
+        *b++ = img->shadow[i];
     }
     memcpy(b, img->rgb + 3 * i, 3);
 }
@@ -139,6 +142,7 @@ static void pixel_unpack(ray_image_t *img, size_t i, ray_pack_t what, const unsi
         memcpy(img->dir + 3 * i, b, 3 * sizeof(double)), b += 3 * sizeof(double);
         img->hit[i] = *b++;
         img->kind[i] = *b++;
+        img->shadow[i] = *b++;
     }
     memcpy(img->rgb + 3 * i, b, 3);
 }
@@ -192,7 +196,8 @@ static unsigned char to_srgb8(double c)
     return (unsigned char)(255.0 * pow(c, 1.0 / 2.2) + 0.5);
 }
 
-void ray_shade(const ray_camera_t *cam, const double d[3], const double n[3], int hit,
+void ray_shade(const ray_camera_t *cam, const double *light, const double p[3],
+               const double d[3], const double n[3], int hit, int shadowed,
                unsigned char rgb[3])
 {
     static const double background[3] = {0.012, 0.014, 0.02};
@@ -203,16 +208,17 @@ void ray_shade(const ray_camera_t *cam, const double d[3], const double n[3], in
             rgb[i] = to_srgb8(background[i]);
         return;
     }
-    /* a light above and to the left of the eye, fixed to the camera */
+    /* the point light, else one above and to the left of the eye, fixed to
+     * the camera */
     double L[3];
     for (int i = 0; i < 3; i++)
-        L[i] = -cam->fwd[i] + 0.7 * cam->vup[i] - 0.4 * cam->right[i];
+        L[i] = light ? light[i] - p[i] : -cam->fwd[i] + 0.7 * cam->vup[i] - 0.4 * cam->right[i];
     double ln = sqrt(dot3(L, L));
     double nd = dot3(n, d);
     const double *base = nd <= 0 ? warm : cool;
     /* two-sided: light the side facing the eye */
     double lambert = (nd <= 0 ? 1.0 : -1.0) * dot3(n, L) / ln;
-    if (!(lambert > 0))
+    if (!(lambert > 0) || shadowed)
         lambert = 0;
     for (int i = 0; i < 3; i++)
         rgb[i] = to_srgb8(base[i] * (0.15 + 0.85 * lambert));
@@ -252,7 +258,15 @@ void ray_render_opts_default(ray_render_opts_t *o)
 
 typedef struct counters {
     uint64_t hits, tangent, evals, segments, leaves;
+    uint64_t shadow_rays, shadowed, shadow_undecided, shadow_evals;
 } counters_t;
+
+double ray_shadow_origin(const double eye[3], const double d[3], double t, double q[3])
+{
+    double tq = t - 0x1p-20 * t;
+    ray_point(eye, d, tq, q);
+    return tq;
+}
 
 /* The first hit along one ray.  Every segment is searched up to the best hit
  * so far and the smaller hit kept, so the first root wins whatever order the
@@ -263,13 +277,16 @@ typedef struct counters {
  * holds the root.  Those after the one with the hit, if they start before
  * it, are searched again up to it. */
 #define BATCH 2
+/* The roots wanted are those before t_end (INFINITY for a primary ray, 1 for
+ * a shadow ray: the light); with `any` the first hit found ends the search
+ * (a shadow ray asks whether there is a root, not where the first one is). */
 static void trace(const tape_t *tape, tape_ws_t *ws, const ray_source_t *src, void *state,
                   const ray_render_opts_t *opts, const double eye[3], const double d[3],
-                  ray_result_t *best, counters_t *cnt)
+                  double t_end, int any, ray_result_t *best, counters_t *cnt)
 {
     ray_segment_t seg, q[BATCH];
     int nq = 0, more = 1;
-    double t_max = INFINITY; /* the best hit so far */
+    double t_max = t_end; /* the best hit so far */
     src->begin(src->ctx, state, eye, d);
     for (;;) {
         while (more && nq < BATCH) {
@@ -306,6 +323,8 @@ static void trace(const tape_t *tape, tape_ws_t *ws, const ray_source_t *src, vo
             *best = r;
             t_max = r.t;
             done = which + 1; /* those after it: searched again, up to the hit */
+            if (any)
+                break;
         }
         /* keep what is left of the batch and was not searched, if it can
          * still start before the best hit */
@@ -325,6 +344,7 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
     int c0, r0, c1, r1;
     tile_rect(W, H, tx, ty, &c0, &r0, &c1, &r1);
     size_t hits[TILE * TILE];
+    double t_lo[TILE * TILE]; /* the hits' bracket starts: no root before them */
     int nh = 0;
 
     for (int row = r0; row < r1; row++)
@@ -333,12 +353,14 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
             double *d = img->dir + 3 * i;
             ray_camera_dir(cam, col, row, d);
             ray_result_t best = {RAY_MISS, NAN, NAN, NAN, 0, 0};
-            trace(tape, ws, src, state, opts, cam->eye, d, &best, cnt);
+            trace(tape, ws, src, state, opts, cam->eye, d, INFINITY, 0, &best, cnt);
             img->t[i] = best.t;
             img->kind[i] = (unsigned char)best.kind;
             img->hit[i] = best.kind != RAY_MISS;
+            img->shadow[i] = RAY_LIT;
             if (best.kind != RAY_MISS) {
                 ray_point(cam->eye, d, best.t, img->point + 3 * i);
+                t_lo[nh] = best.t_lo;
                 hits[nh++] = i;
                 cnt->hits++;
                 if (best.kind == RAY_HIT_TANGENT || best.kind == RAY_HIT_BUDGET)
@@ -346,7 +368,7 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
             } else {
                 for (int k = 0; k < 3; k++)
                     img->point[3 * i + k] = img->normal[3 * i + k] = NAN;
-                ray_shade(cam, d, NULL, 0, img->rgb + 3 * i);
+                ray_shade(cam, NULL, NULL, d, NULL, 0, 0, img->rgb + 3 * i);
             }
         }
 
@@ -366,8 +388,43 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
         for (int k = 0; k < m; k++) {
             size_t i = hits[b + k];
             normal_from(&g[k], img->dir + 3 * i, img->normal + 3 * i);
-            ray_shade(cam, img->dir + 3 * i, img->normal + 3 * i, 1, img->rgb + 3 * i);
         }
+    }
+
+    /* shadow rays: between the light and a point q a little in front of each
+     * hit, where no root lies between the eye and q; any root on the way
+     * casts the shadow.  The ray starts at the light and ends at q (s = 1):
+     * near q, where a lit ray must exclude the surface it starts close to,
+     * the parameter's ulps are as fine as the points' (near s = 0 they would
+     * be far finer, and the searches there needlessly long) */
+    for (int k = 0; k < nh && opts->light_on; k++) {
+        size_t i = hits[k];
+        double q[3], ds[3];
+        unsigned char sh = RAY_SHADOW_UNDECIDED;
+        cnt->shadow_rays++;
+        if (ray_shadow_origin(cam->eye, img->dir + 3 * i, img->t[i], q) < t_lo[k]) {
+            for (int a = 0; a < 3; a++)
+                ds[a] = q[a] - opts->light[a];
+            ray_result_t sr = {RAY_MISS, NAN, NAN, NAN, 0, 0};
+            counters_t sc = {0};
+            trace(tape, ws, src, state, opts, opts->light, ds, 1.0, 1, &sr, &sc);
+            sh = sr.kind == RAY_MISS       ? RAY_LIT
+                 : sr.kind == RAY_HIT_ROOT ? RAY_SHADOWED
+                                           : RAY_SHADOW_UNDECIDED;
+            cnt->evals += sc.evals;
+            cnt->shadow_evals += sc.evals;
+            cnt->segments += sc.segments;
+            cnt->leaves += sc.leaves;
+        }
+        img->shadow[i] = sh;
+        cnt->shadowed += sh == RAY_SHADOWED;
+        cnt->shadow_undecided += sh == RAY_SHADOW_UNDECIDED;
+    }
+
+    for (int k = 0; k < nh; k++) {
+        size_t i = hits[k];
+        ray_shade(cam, opts->light_on ? opts->light : NULL, img->point + 3 * i, img->dir + 3 * i,
+                  img->normal + 3 * i, 1, img->shadow[i] != RAY_LIT, img->rgb + 3 * i);
     }
 }
 
@@ -400,6 +457,15 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
         ivoct_error_set(err, "ray_render: part %d of %d", opts->part, opts->parts);
         return 1;
     }
+    if (opts->light_on &&
+        !(isfinite(opts->light[0]) && isfinite(opts->light[1]) && isfinite(opts->light[2]))) {
+        ivoct_error_set(err, "ray_render: the light (%g %g %g) is not a finite point",
+                        opts->light[0], opts->light[1], opts->light[2]);
+        return 1;
+    }
+    img->lit = opts->light_on != 0;
+    for (int a = 0; a < 3; a++)
+        img->light[a] = opts->light_on ? opts->light[a] : 0;
     const int tiles_x = (img->width + TILE - 1) / TILE, tiles_y = (img->height + TILE - 1) / TILE;
     const long ntiles = (long)tiles_x * tiles_y;
     long mine = 0; /* the tiles of the part */
@@ -408,10 +474,13 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
     const int nthreads = opts->threads > 0 ? opts->threads : omp_get_max_threads();
     double start = omp_get_wtime();
     uint64_t hits = 0, tangent = 0, evals = 0, segments = 0, leaves = 0;
+    uint64_t shadow_rays = 0, shadowed = 0, shadow_undecided = 0, shadow_evals = 0;
     int failed = 0, used = 1;
     long done = 0;
 
-#pragma omp parallel num_threads(nthreads) reduction(+ : hits, tangent, evals, segments, leaves)
+#pragma omp parallel num_threads(nthreads) reduction(+ : hits, tangent, evals, segments, leaves, \
+                                                        shadow_rays, shadowed, shadow_undecided, \
+                                                        shadow_evals)
     {
         tape_ws_t *ws = tape_ws_new(tape->n);
         void *state = malloc(src->state_size ? src->state_size : 1);
@@ -427,13 +496,17 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
             const int tx = (int)(tile % tiles_x), ty = (int)(tile / tiles_x);
             if (!ok || !in_part(tx, ty, part, parts))
                 continue;
-            counters_t cnt = {0, 0, 0, 0, 0};
+            counters_t cnt = {0};
             render_tile(tape, ws, cam, src, state, opts, img, tx, ty, &cnt);
             hits += cnt.hits;
             tangent += cnt.tangent;
             evals += cnt.evals;
             segments += cnt.segments;
             leaves += cnt.leaves;
+            shadow_rays += cnt.shadow_rays;
+            shadowed += cnt.shadowed;
+            shadow_undecided += cnt.shadow_undecided;
+            shadow_evals += cnt.shadow_evals;
             long now;
 #pragma omp atomic capture
             now = ++done;
@@ -456,6 +529,10 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
         stats->tape_evals = evals;
         stats->segments = segments;
         stats->leaves = leaves;
+        stats->shadow_rays = shadow_rays;
+        stats->shadowed = shadowed;
+        stats->shadow_undecided = shadow_undecided;
+        stats->shadow_evals = shadow_evals;
         stats->time_s = omp_get_wtime() - start;
         stats->threads = used;
     }

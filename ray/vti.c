@@ -44,7 +44,7 @@ static void b64_end(b64_t *b)
 }
 
 /* One Float64 point array of ncomp components; values in image order (row 0
- * at the top) are written in VTK order (y up). */
+ * at the top) are written in VTK order (y up).  Bytes are flags: 0 or 1. */
 static void write_array(FILE *f, const char *name, const ray_image_t *img, int ncomp,
                         const double *vals, const unsigned char *bytes)
 {
@@ -61,7 +61,7 @@ static void write_array(FILE *f, const char *name, const ray_image_t *img, int n
         for (int col = 0; col < W; col++) {
             size_t i = row * W + col;
             for (int k = 0; k < ncomp; k++) {
-                double v = vals ? vals[(size_t)ncomp * i + k] : (double)bytes[i];
+                double v = vals ? vals[(size_t)ncomp * i + k] : (double)(bytes[i] != 0);
                 b64_put(&b, &v, sizeof v);
             }
         }
@@ -99,6 +99,8 @@ int ray_write_vti(FILE *f, const ray_image_t *img, const ray_camera_t *cam,
     field_vec(f, "target", cam->target, 3);
     field_vec(f, "up", cam->up, 3);
     field_vec(f, "fov", &cam->fov, 1);
+    if (img->lit)
+        field_vec(f, "light", img->light, 3);
     /* a String array: the characters as numbers, each string closed by 0 */
     fputs("      <Array type=\"String\" Name=\"method\" NumberOfTuples=\"1\" format=\"ascii\">", f);
     for (const char *p = method ? method : ""; *p; p++)
@@ -113,6 +115,9 @@ int ray_write_vti(FILE *f, const ray_image_t *img, const ray_camera_t *cam,
     write_array(f, "point", img, 3, img->point, NULL);
     write_array(f, "normal", img, 3, img->normal, NULL);
     write_array(f, "dir", img, 3, img->dir, NULL);
+    /* 0 lit, 1 in shadow (certified or undecided: ray/README.md, "Shadows") */
+    if (img->lit)
+        write_array(f, "shadow", img, 1, NULL, img->shadow);
     fputs("      </PointData>\n"
           "      <CellData>\n"
           "      </CellData>\n"

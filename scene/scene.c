@@ -39,13 +39,14 @@ static const struct {
     [K_EYE] = {SEC_CAMERA, "eye"},      [K_TARGET] = {SEC_CAMERA, "target"},
     [K_UP] = {SEC_CAMERA, "up"},        [K_FOV] = {SEC_CAMERA, "fov"},
     [K_SIZE] = {SEC_CAMERA, "size"},    [K_METHOD] = {SEC_RENDER, "method"},
+    [K_LIGHT] = {SEC_RENDER, "light"},
 };
 static const char *const KEYS_EXPECTED[] = {
     "",
     "name, f, box, let.NAME, param.x, param.y, param.z, u, v or implicitize",
     "depth, tests or refine",
     "eye, target, up, fov or size",
-    "method",
+    "method or light",
     "",
 };
 
@@ -205,6 +206,9 @@ static void parse_values(loader_t *L, scene_t *s, camera_keys_t *c)
     }
     if ((e = L->cur = scene_entry(L, K_METHOD)))
         scene_val_method(L, e, &s->method);
+    if ((e = L->cur = scene_entry(L, K_LIGHT)) &&
+        !scene_val_numbers(L, e, "light", "x y z of a point light", 3, NULL, s->light, NULL))
+        s->has_light = 1;
     L->cur = NULL;
 }
 

@@ -37,6 +37,8 @@ typedef struct scene {
      * ray_camera_init; the default eye and target frame the box */
     ray_camera_t camera;
     ray_method_t method;   /* [render] method, default the renderer's (newton-ah) */
+    int has_light;         /* [render] light = x y z: a point light casting shadows */
+    double light[3];
     /* a parametric surface ([surface] param.x, param.y, param.z): how f was
      * found (source.f is its f_tape, source.param the parametrization); NULL
      * for an implicit surface */

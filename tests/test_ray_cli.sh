@@ -3,7 +3,11 @@
 # complete or absent (never partial), byte-identical PNG and .vti for 1 and 2
 # threads, the stats JSON, the PNG and .vti contents, turntable frame names;
 # the octree: built by default or loaded with --octree (same image either way,
-# and the same hits and t as --no-octree), mismatched or bad .ivo files.
+# and the same hits and t as --no-octree), mismatched or bad .ivo files; a
+# point light (--light, the scene's [render] light, --no-light): the shadow
+# array and the light in the .vti, the shadow counts in the JSON, the shadows
+# the same with and without the octree and for 1 and 2 threads.  (Whether the
+# shadows are right is tests/test_ray_shadows.c's job, against MPFR.)
 #
 # Needs IVOCT_BIN (the CLI) and IVOCT_SOURCE_DIR (the source tree), as set by
 # ctest; /usr/bin/python3 reads the JSON, PNG and .vti outputs.
@@ -28,7 +32,8 @@ mkdir -p "$TMP/o"
 # ---- help and usage errors -------------------------------------------------------------
 if run 0 "render --help" -- render --help; then
     for m in mitchell newton newton-ah mrfro mrfro-newton lipschitz sampling --no-octree \
-        --octree --method --size --threads --png --vti --frames --stats --quiet; do
+        --octree --method --size --threads --png --vti --frames --stats --quiet --light \
+        --no-light; do
         grep -q -- "$m" "$TMP/out" && ok || fail "render --help does not mention $m"
     done
 fi
@@ -326,5 +331,68 @@ run 0 "no choices: no leaf tapes" -- render "$S" --size 16x12 --stats "$TMP/s.js
         "$TMP/s.json" && ok || fail "a tape without choices got leaf tapes"
 run 0 "render --help: --no-leaf-tapes" -- render --help &&
     grep -q -- "--no-leaf-tapes" "$TMP/out" && ok || fail "render --help does not mention --no-leaf-tapes"
+
+# ---- a point light: shadows -------------------------------------------------------------
+G=$SCENES/gumdrop.ini
+run 2 "--light with two values" -- render "$G" --light 1 2 && one_line_error "--light 1 2"
+run 2 "--light nan" -- render "$G" --light 1 2 nan --png "$TMP/o/x.png" &&
+    one_line_error "--light nan"
+run 2 "--light and --no-light" -- render "$G" --light 1 2 3 --no-light &&
+    one_line_error "--light and --no-light"
+printf '[surface]\nf = x^2 + y^2 + z^2 - 1\nbox = -2 2 -2 2 -2 2\n[render]\nlight = 5 1\n' \
+    >"$TMP/badlight.ini"
+run 2 "scene light with two values" -- render "$TMP/badlight.ini" --png "$TMP/o/x.png" &&
+    one_line_error "scene light" "badlight.ini:5:12: "
+no_outputs "light errors"
+# the gumdrop at depth 6; the light up and to the right of the eye
+sed 's/^depth .*/depth  = 6/' "$G" >"$TMP/g6.ini"
+printf 'light = 12 -4 14\n' >>"$TMP/g6.ini"
+for t in 1 2; do
+    run 0 "light, octree, $t threads" -- render "$TMP/g6.ini" --size 40x36 --threads $t \
+        --png "$TMP/l$t.png" --vti "$TMP/l$t.vti" --stats "$TMP/l$t.json" --quiet
+done
+cmp -s "$TMP/l1.png" "$TMP/l2.png" && ok || fail "light: PNG differs between 1 and 2 threads"
+cmp -s "$TMP/l1.vti" "$TMP/l2.vti" && ok || fail "light: .vti differs between 1 and 2 threads"
+run 0 "light, --no-octree" -- render "$TMP/g6.ini" --size 40x36 --no-octree \
+    --vti "$TMP/ln.vti" --stats "$TMP/ln.json" --quiet
+run 0 "--light overrides the scene's" -- render "$TMP/g6.ini" --size 40x36 --light 12 -4 14 \
+    --png "$TMP/lo.png" --quiet && cmp -s "$TMP/l1.png" "$TMP/lo.png" && ok ||
+    fail "--light with the scene's own light gives another image"
+run 0 "--no-light" -- render "$TMP/g6.ini" --size 40x36 --no-light --png "$TMP/nl.png" \
+    --vti "$TMP/nl.vti" --stats "$TMP/nl.json" --quiet
+"$PY" - "$TMP/l1.json" "$TMP/l1.vti" "$TMP/ln.json" "$TMP/ln.vti" "$TMP/nl.json" "$TMP/nl.vti" \
+    <<'EOF' && ok || fail "light: contents (above)"
+import base64, json, math, struct, sys
+import xml.etree.ElementTree as ET
+
+def vti(path):
+    img = ET.parse(path).getroot().find("ImageData")
+    fd = {a.get("Name"): a.text for a in img.find("FieldData")}
+    arrays = {}
+    for a in img.find("Piece").find("PointData"):
+        raw = base64.b64decode("".join(a.text.split()))
+        n, = struct.unpack("<Q", raw[:8])
+        arrays[a.get("Name")] = struct.unpack("<%dd" % (n // 8), raw[8:])
+    return fd, arrays
+
+st, (fd, ar) = json.load(open(sys.argv[1])), vti(sys.argv[2])
+assert st["light"] == [12, -4, 14], st["light"]
+assert [float(x) for x in fd["light"].split()] == [12, -4, 14]
+assert set(ar) == {"t", "hit", "point", "normal", "dir", "shadow"}, set(ar)
+sh, hit = ar["shadow"], ar["hit"]
+assert all(s in (0.0, 1.0) for s in sh) and all(s == 0 for s, h in zip(sh, hit) if not h)
+n_sh = int(sum(sh))
+assert st["shadow_rays"] == st["hits"] == int(sum(hit)) > 0
+assert n_sh == st["shadowed"] + st["shadow_undecided"] and 0 < n_sh < st["hits"], (n_sh, st)
+assert 0 < st["shadow_tape_evals"] < st["tape_evals"]
+# the octree and the box source: the same hits and the same shadows
+stn, (_, arn) = json.load(open(sys.argv[3])), vti(sys.argv[4])
+assert arn["hit"] == hit and arn["shadow"] == sh and stn["shadowed"] == st["shadowed"]
+# --no-light: no shadow array, no light
+stl, (fdl, arl) = json.load(open(sys.argv[5])), vti(sys.argv[6])
+assert stl["light"] is None and "shadow_rays" not in stl and "light" not in fdl
+assert "shadow" not in arl and arl["hit"] == hit
+EOF
+cmp -s "$TMP/l1.png" "$TMP/nl.png" && fail "the light does not change the image" || ok
 
 cli_summary

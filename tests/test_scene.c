@@ -125,7 +125,8 @@ static void test_full_scene(void **state)
             "fov = 45\n"
             "size = 640 480\n"
             "[render]\n"
-            "method = mrfro-newton\n",
+            "method = mrfro-newton\n"
+            "light = -3 4.5 1e1\n",
             &s);
     assert_non_null(s.path);
     assert_string_equal(s.source.name, "Gumdrop   torus");
@@ -152,6 +153,8 @@ static void test_full_scene(void **state)
     assert_int_equal(s.camera.width, 640);
     assert_int_equal(s.camera.height, 480);
     assert_string_equal(ray_method_name(s.method), "mrfro-newton");
+    assert_int_equal(s.has_light, 1);
+    assert_vec(s.light, -3, 4.5, 10);
     scene_free(&s);
     assert_null(s.tape);
 }
@@ -173,6 +176,7 @@ static void test_defaults(void **state)
     assert_int_equal(s.camera.width, 300);
     assert_int_equal(s.camera.height, 300);
     assert_string_equal(ray_method_name(s.method), "newton-ah");
+    assert_int_equal(s.has_light, 0);
     /* the eye looks at the centre from (1, 0.8, 0.6), and the box's
      * circumscribed sphere fits in the field of view */
     double d[3], len = 0;
@@ -313,6 +317,14 @@ static void test_errors(void **state)
          "or sampling"},
         {"[surface]\nf = x\n" BOX "[render]\nmethod = newton mitchell\n", 5, 17,
          "method: expected one method name, found more"},
+        {"[surface]\nf = x\n" BOX "[render]\nlight = 1 2\n", 5, 12,
+         "light takes 3 numbers (x y z of a point light), found 2"},
+        {"[surface]\nf = x\n" BOX "[render]\nlight = 1 2 inf\n", 5, 13,
+         "light: infinite values are not allowed, found 'inf'"},
+        {"[surface]\nf = x\n" BOX "[render]\nlight = 1 2 3 4\n", 5, 15,
+         "light takes 3 numbers (x y z of a point light), found more"},
+        {"[surface]\nf = x\n" BOX "[render]\nlamp = 1 2 3\n", 5, 1,
+         "unknown key 'lamp' in [render]; expected method or light"},
         /* the renderer's limit, RAY_MAX_SIZE = 65536 */
         {"[surface]\nf = x\n" BOX "[camera]\nsize = 300 65537\n", 5, 12,
          "size: expected an integer from 1 to 65536, found '65537'"},

@@ -3,11 +3,12 @@
 # docs/cluster.md): each frame cut into parts, one per rank (the 16x16 tiles (tx, ty) with
 # (tx + ty) mod N = rank), gathered on rank 0, which writes the files.
 #
-# For N = 1, 2, 3 (oversubscribed) on the CSG scene (its octree loaded by every rank), the
+# For N = 1, 2, 3 (oversubscribed) on the CSG scene (its octree loaded by every rank; and
+# with a point light, whose shadow flags travel with the pixels), the
 # gumdrop without an octree under several methods, and a sphere whose octree every rank
 # builds: the PNG and the .vti are the single-process files (cmp), at a size whose last
 # row and column of tiles are partial; the stats' sums are the single render's, the
-# ranks' rays add up to the rays, the bytes gathered are the other ranks' pixels (85 a
+# ranks' rays add up to the rays, the bytes gathered are the other ranks' pixels (86 a
 # pixel with --vti, 3 with --png alone, none with --stats alone).  Two frames over three
 # ranks: both split, both the single files.  Failures: a missing folder (every rank),
 # --png /dev/full (rank 0 alone fails, after the gather) and a missing --octree on rank 1
@@ -27,7 +28,7 @@ asan=${IVOCT_ASAN:-0}
 nps="1 2 3" few=3
 [ "$asan" = 1 ] && nps="2 3" few=2
 # the sums of the stats (time_s and threads are not sums of work)
-totals() { grep -E '"(frames|rays|hits|tangent_hits|tape_evals|segments|leaves_visited|width|height)"' "$1"; }
+totals() { grep -E '"(frames|rays|hits|tangent_hits|tape_evals|segments|leaves_visited|width|height|shadow_[a-z_]+|shadowed)"' "$1"; }
 json_key() { "$PY" -c "import json,sys; d=json.load(open(sys.argv[1])); print(eval('d'+sys.argv[2]))" "$1" "$2"; }
 
 # mpi_figures TAG NP JSON BYTES_A_PIXEL: the "mpi" object of a split render
@@ -78,13 +79,15 @@ compare() {
         cmp -s "$W/one.vti" "$W/m.vti" && ok || fail "$tag, $np ranks: the .vti differs"
         diff <(totals "$W/one.json") <(totals "$W/m.json") >/dev/null && ok ||
             fail "$tag, $np ranks: the stats' sums differ: $(diff <(totals "$W/one.json") <(totals "$W/m.json") | tr '\n' ' ')"
-        [ "$np" -gt 1 ] && mpi_figures "$tag" $np "$W/m.json" 85
+        [ "$np" -gt 1 ] && mpi_figures "$tag" $np "$W/m.json" 86
     done
 }
 
 # the CSG scene, its octree (shallow: the render is what is tested) loaded by every rank
 run 0 "csg: octree" -- build "$SCENES/csg-64-spheres.ini" --depth 6 --save "$W/csg.ivo" --quiet
 compare "csg" "$nps" "$SCENES/csg-64-spheres.ini" --octree "$W/csg.ivo"
+# with a point light: the shadows travel with the pixels
+compare "csg, a light" "$few" "$SCENES/csg-64-spheres.ini" --octree "$W/csg.ivo" --light 3 -4 5
 # methods, without an octree
 methods=(mitchell newton mrfro-newton lipschitz sampling)
 [ "$asan" = 1 ] && methods=(mitchell)
@@ -107,7 +110,7 @@ mpirun_ivoct 3 0 "2 frames, 3 ranks" -- render "$SCENES/csg-64-spheres.ini" --oc
     done
     diff <(totals "$W/one.json") <(totals "$W/f.json") >/dev/null && ok ||
         fail "2 frames, 3 ranks: the stats' sums differ"
-    mpi_figures "2 frames" 3 "$W/f.json" 85
+    mpi_figures "2 frames" 3 "$W/f.json" 86
 }
 # what is gathered: the shaded image for a PNG alone, nothing for the stats alone
 run 0 "png alone: single" -- render "$SCENES/csg-64-spheres.ini" --octree "$W/csg.ivo" --size $size \

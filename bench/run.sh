@@ -73,6 +73,14 @@ else
     bash "$here/leaf_tapes.sh" --build "$build"
 fi
 
+part "certified shadows: the render with and without a point light (bench/shadows.sh)"
+if [ "$quick" = 1 ]; then
+    bash "$here/shadows.sh" --build "$build" --size 100x100 --reps 1 --scenes "sphere gumdrop" \
+        --out shadows-quick
+else
+    bash "$here/shadows.sh" --build "$build"
+fi
+
 part "render time against hit error, and the OpenVDB level-set baseline (bench/ray_error.sh)"
 if [ -x "$build/bench/ivoct_ray_error" ]; then
     # one repetition (ray.sh above has timed the same renders already)

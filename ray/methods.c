@@ -80,4 +80,5 @@ void ray_opts_default(ray_opts_t *o)
     o->tol_rel = 0x1p-44;
     o->sample_step = 0;
     o->max_nodes = 100000;
+    o->any_root = 0;
 }

@@ -20,8 +20,11 @@ int newton_case(ctx_t *c, node_t *np, ray_result_t *res)
         double lo = fmax(N.lo, n.a), hi = fmin(N.hi, n.b);
         if (lo > hi)
             return RAY_MISS;
-        if (N.lo > n.a && N.hi < n.b)
+        if (N.lo > n.a && N.hi < n.b) {
             proven = 1;
+            if (c->any) /* a root in N ∩ T: enough */
+                return hit(res, RAY_HIT_ROOT, 0.5 * lo + 0.5 * hi, lo, hi);
+        }
         if (hi - lo > 0.75 * (n.b - n.a))
             break;
         node_t nn;
@@ -42,6 +45,8 @@ int newton_case(ctx_t *c, node_t *np, ray_result_t *res)
         return hit(res, RAY_HIT_ZERO, n.a, n.a, n.b);
     if (!is_sign(sa) || sb == S_UNDEF)
         return UNDECIDED;
+    if (c->any && sb == -sa)
+        return hit(res, RAY_HIT_ROOT, 0.5 * n.a + 0.5 * n.b, n.a, n.b);
     if (!tiny(n.a, n.b)) {
         ray_hit_kind_t k = refine(c, n.a, n.b, sa, n.ga, n.dga, n.gb, n.dgb, res);
         if (proven)

@@ -125,6 +125,13 @@ typedef struct ray_opts {
     /* Safety net: after this many segments of one search the first unresolved
      * one is reported as a hit (RAY_HIT_BUDGET).  Default 100000. */
     long max_nodes;
+    /* An any-hit query (shadow rays): the search ends as soon as a segment is
+     * proven to hold a root -- certified signs of opposite signs at its ends on
+     * a segment where G' excludes 0 (or, for mrfro, on any segment), or an
+     * interval Newton step inside the segment -- instead of refining the root
+     * to a few ulps: RAY_HIT_ROOT with [t_lo, t_hi] that segment and t its
+     * midpoint.  Other hits and misses are as without it.  Default 0. */
+    int any_root;
 } ray_opts_t;
 
 void ray_opts_default(ray_opts_t *o);

@@ -160,5 +160,7 @@ ray_hit_kind_t monotone_case(ctx_t *c, const node_t *n, ray_result_t *res)
         return hit(res, RAY_HIT_ZERO, n->a, n->a, n->a);
     if (is_sign(sa) && sa == sb)
         return RAY_MISS;
+    if (c->any && is_sign(sa) && sb == -sa) /* a root in [a, b]: enough */
+        return hit(res, RAY_HIT_ROOT, 0.5 * n->a + 0.5 * n->b, n->a, n->b);
     return refine(c, n->a, n->b, sa, n->ga, n->dga, n->gb, n->dgb, res);
 }

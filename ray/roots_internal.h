@@ -70,6 +70,7 @@ typedef struct ctx {
     const ray_method_info_t *method;
     int deriv;       /* method->deriv: derivatives wanted */
     int skip;        /* method->skip: nodes with 0 ∉ G(T) are dropped unseen (eval_nodes) */
+    int any;         /* ray_opts_t.any_root: a root proven in a segment ends the search */
     uint64_t evals;  /* evaluator calls */
     uint64_t nodes;  /* segments examined */
 } ctx_t;

@@ -36,6 +36,8 @@ static ray_hit_kind_t step(ctx_t *c, search_t *S, const node_t *np, ray_result_t
             if (at_tol)
                 return hit(res, RAY_HIT_TANGENT, n.m, n.a, n.b);
         } else {
+            if (c->any && sb == -sa)
+                return hit(res, RAY_HIT_ROOT, n.m, n.a, n.b);
             if (M->monotone == MONOTONE_NEWTON && monotone(&n)) {
                 int k = newton_case(c, &n, res);
                 if (k != UNDECIDED)
@@ -194,7 +196,7 @@ ray_hit_kind_t ray_find_root_n(const tape_t *tape, tape_ws_t *ws, ray_method_t m
     if (k == 0)
         return RAY_MISS;
     const ray_method_info_t *M = ray_method_info(m);
-    ctx_t c = {tape, ws, o, d, M, M->deriv, M->skip, 0, 0};
+    ctx_t c = {tape, ws, o, d, M, M->deriv, M->skip, opts->any_root != 0, 0, 0};
     ray_hit_kind_t kind = RAY_MISS;
     int w = -1;
     if (M->rules == RULES_SAMPLING) {

@@ -18,11 +18,14 @@
  *  - undecided pixels (counted as shadow by the renderer) are counted; those
  *    where the reference is lit and not ambiguous (a shadow that was
  *    conservative for nothing) are bounded at UNDECIDED_PERMILLE per mille
- *    of the hits for every method but mrfro, whose bisection ends its brackets
- *    on points where f's enclosure holds 0 (RAY_HIT_ZERO), so that its
- *    shadows are undecided by design: for it, every undecided pixel must be a
- *    reference root or ambiguous.
+ *    of the hits.
  * Not vacuous: the reference finds shadowed and lit pixels on every surface.
+ *
+ * The any-hit search the shadow rays run (ray_opts_t.any_root), on random
+ * rays through each surface's box, every certified method: it misses exactly
+ * where the full search misses; where it reports a root, the reference has a
+ * root in its bracket [t_lo, t_hi], and the full search's first hit is not
+ * after it.
  *
  * Then, on gumdrop and on the CSG union (leaf tapes): 1 and 2 threads give
  * the same buffers byte for byte; leaf tapes built with the light's margin
@@ -180,11 +183,8 @@ static void test_shadows_against_reference(void **state)
                     const char *bad = NULL;
                     if (sh == RAY_SHADOW_UNDECIDED) {
                         n_und++;
-                        if (!r.hit && !r.ambiguous) {
+                        if (!r.hit && !r.ambiguous)
                             und_lit++;
-                            if (m == RAY_MRFRO)
-                                bad = "undecided where the reference is lit";
-                        }
                     } else if (r.ambiguous) {
                         exempt++;
                         if (r.hit && !r.near_box && sh == RAY_LIT)
@@ -203,7 +203,7 @@ static void test_shadows_against_reference(void **state)
                 assert_int_equal(n_sh, st.shadowed);
                 assert_int_equal(n_und, st.shadow_undecided);
                 assert_int_equal(st.shadow_rays, st.hits);
-                if (m != RAY_MRFRO && und_lit * 1000 > UNDECIDED_PERMILLE * st.hits) {
+                if (und_lit * 1000 > UNDECIDED_PERMILLE * st.hits) {
                     printf("%s %s %s: %zu undecided shadows where the reference is lit\n", name,
                            SRC_NAME[j], ray_method_name((ray_method_t)m), und_lit);
                     failures++;
@@ -299,6 +299,82 @@ static void test_shadows_threads_tapes_vti(void **state)
     }
 }
 
+/* ray_opts_t.any_root against the full search and the reference. */
+static void test_any_root(void **state)
+{
+    (void)state;
+    uint64_t rng = tu_seed(0x5eedULL);
+    const int rays = tu_scale() < 1 ? 40 : 200;
+    size_t roots = 0, misses = 0, failures = 0;
+    for (size_t k = 0; k < TU_N_COMPARISON; k++) {
+        scene_t s;
+        tu_load_scene(tu_comparison_surfaces[k], &s);
+        rref_t *ref = rref_new(s.tape);
+        assert_non_null(ref);
+        tape_ws_t *ws = tape_ws_new(s.tape->n);
+        assert_non_null(ws);
+        for (int r = 0; r < rays; r++) {
+            /* from a point outside the box through a random point of it */
+            double o[3], p[3], d[3], len = 0;
+            for (int a = 0; a < 3; a++) {
+                double lo = s.box[2 * a], hi = s.box[2 * a + 1], w = hi - lo;
+                p[a] = tu_lerp(lo, hi, tu_uniform(&rng));
+                o[a] = tu_lerp(lo - w, hi + w, tu_uniform(&rng));
+                if (a == 0)
+                    o[a] = hi + w; /* outside on x */
+                d[a] = p[a] - o[a];
+                len += d[a] * d[a];
+            }
+            for (int a = 0; a < 3; a++)
+                d[a] /= sqrt(len);
+            double t0, t1;
+            if (!ray_clip_box(s.box, o, d, &t0, &t1))
+                continue;
+            for (int m = 0; m < RAY_METHOD_COUNT; m++) {
+                if (!ray_method_certified((ray_method_t)m))
+                    continue;
+                ray_opts_t full, any;
+                ray_opts_default(&full);
+                any = full;
+                any.any_root = 1;
+                ray_result_t rf, ra;
+                ray_find_root(s.tape, ws, (ray_method_t)m, &full, o, d, t0, t1, &rf);
+                ray_find_root(s.tape, ws, (ray_method_t)m, &any, o, d, t0, t1, &ra);
+                const char *bad = NULL;
+                if ((ra.kind == RAY_MISS) != (rf.kind == RAY_MISS))
+                    bad = "the any-hit search and the full one disagree on hit/miss";
+                else if (ra.kind == RAY_HIT_ROOT) {
+                    rref_result_t q;
+                    rref_ray(ref, o, d, ra.t_lo, ra.t_hi, &q);
+                    if (!q.hit && !q.ambiguous)
+                        bad = "no root of the reference in the any-hit bracket";
+                    else if (!(rf.t <= ra.t_hi))
+                        bad = "the first hit lies after the any-hit bracket";
+                    roots++;
+                    if (ra.evals > rf.evals)
+                        bad = "the any-hit search took more passes than the full one";
+                }
+                misses += ra.kind == RAY_MISS;
+                if (bad) {
+                    if (failures < 10)
+                        printf("%s %s ray %d: %s (any: kind %d [%.17g, %.17g]; full: kind %d "
+                               "t %.17g)\n",
+                               tu_comparison_surfaces[k], ray_method_name((ray_method_t)m), r,
+                               bad, ra.kind, ra.t_lo, ra.t_hi, rf.kind, rf.t);
+                    failures++;
+                }
+            }
+        }
+        tape_ws_free(ws);
+        rref_free(ref);
+        scene_free(&s);
+    }
+    rref_thread_cleanup();
+    printf("any-hit: %zu proven roots, %zu misses\n", roots, misses);
+    assert_true(roots > 0 && misses > 0);
+    assert_int_equal(failures, 0);
+}
+
 /* The shadow ray's end lies before the hit on the primary ray, by 2^-20 t. */
 static void test_shadow_origin(void **state)
 {
@@ -317,6 +393,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_shadow_origin),
+        cmocka_unit_test(test_any_root),
         cmocka_unit_test(test_shadows_threads_tapes_vti),
         cmocka_unit_test(test_shadows_against_reference),
     };

@@ -34,8 +34,10 @@ static void json_u64_array(FILE *f, const uint64_t *v, int n)
     fputc(']', f);
 }
 
-static int write_stats(const scene_t *s, const oct_tree_t *t, io_group_t *g, const char *path,
-                       const build_stats_extra_t *extra, ivoct_error_t *err)
+/* certain: the leaves were certified (--certain): t->certain, or, for the
+ * counts of a build over MPI that holds no tree, the ranks' parts */
+static int write_stats(const scene_t *s, const oct_tree_t *t, bool certain, io_group_t *g,
+                       const char *path, const build_stats_extra_t *extra, ivoct_error_t *err)
 {
     const oct_stats_t *st = &t->stats;
     io_file_t f;
@@ -77,7 +79,7 @@ static int write_stats(const scene_t *s, const oct_tree_t *t, io_group_t *g, con
             s->tape->n, (unsigned long long)st->tape_clauses_evaluated);
     cli_json_double(o, st->time_s);
     size_t storage = (size_t)t->n_nodes * sizeof *t->nodes + (size_t)t->n_leaves * sizeof *t->leaves;
-    if (t->certain)
+    if (certain)
         storage += (size_t)t->n_leaves * sizeof *t->certain;
     fprintf(o, ",\n  \"peak_bytes\": %zu,\n  \"nodes\": %u,\n  \"storage_bytes\": %zu,\n"
                "  \"bytes_per_leaf\": ",
@@ -85,7 +87,7 @@ static int write_stats(const scene_t *s, const oct_tree_t *t, io_group_t *g, con
     cli_json_double(o, t->n_leaves ? (double)storage / t->n_leaves : 0.0);
     fprintf(o, ",\n  \"leaf_record_bytes\": %zu,\n  \"threads\": %d,\n  \"simd\": \"%s\"",
             sizeof(oct_leaf_t), st->threads, tape_simd_name());
-    if (t->certain) {
+    if (certain) {
         fprintf(o, ",\n  \"leaves_certain\": %llu,\n  \"leaves_certain_share\": ",
                 (unsigned long long)st->leaves_certain);
         cli_json_double(o, t->n_leaves ? (double)st->leaves_certain / t->n_leaves : 0.0);
@@ -253,7 +255,7 @@ int build_write_outputs(const build_job_t *job, const oct_tree_t *tree, io_group
         return EXIT_RUNTIME;
     if (stats)
         cli_test_pause("stats");
-    if (stats && write_stats(s, tree, g, stats, extra, err))
+    if (stats && write_stats(s, tree, job->certain, g, stats, extra, err))
         return EXIT_RUNTIME;
     if (write_exports(s, tree, ex, g, err))
         return EXIT_RUNTIME;
@@ -339,7 +341,7 @@ int cmd_build(int argc, char **argv)
                  "adds the columns\n"
                  "certain,wx0,wy0,wz0,wx1,wy1,wz1 to --cells, the cell array\n"
                  "certain to --vtu and --htg, the flags to --save and\n"
-                 "leaves_certain to --stats (octree/README.md); not under mpirun"},
+                 "leaves_certain to --stats (octree/README.md)"},
         {.name = "--quiet", .alias = "-q", .kind = CLI_FLAG, .target = &quiet,
          .help = "no summary on stdout, no progress bar"},
         {0},
@@ -386,10 +388,6 @@ int cmd_build(int argc, char **argv)
     p.progress_user = &prog;
     const build_job_t job = {&s, p, cells, save, stats, ex, (int)threads, max_memory, certain};
 #ifdef IVOCT_MPI
-    if (cli_mpi_ranks() && certain) {
-        rc = cli_usage_error("build", "--certain is not supported under mpirun");
-        goto out;
-    }
     if (cli_mpi_ranks()) {
         /* started by mpirun: the build and the outputs spread over the ranks */
         rc = cli_mpi_build(&job, quiet);

@@ -490,10 +490,11 @@ static void reduce_stats(const oct_stats_t *mine, oct_stats_t *sum)
         v[k++] = mine->tape_length_sum_by_depth[d], v[k++] = mine->split_by_depth[d];
     }
     MPI_Reduce(v, t, N, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
-    uint64_t clauses = mine->tape_clauses_evaluated, tc = 0;
-    MPI_Reduce(&clauses, &tc, 1, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
-    double e = mine->max_error_bound, te = 0;
-    MPI_Reduce(&e, &te, 1, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
+    uint64_t u[2] = {mine->tape_clauses_evaluated, mine->leaves_certain}, tu[2] = {0, 0};
+    MPI_Reduce(u, tu, 2, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
+    /* the largest error bound; the slowest rank's certification */
+    double e[2] = {mine->max_error_bound, mine->certain_time_s}, te[2] = {0, 0};
+    MPI_Reduce(e, te, 2, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
     k = 0;
     memset(sum, 0, sizeof *sum);
     sum->cells_visited = t[k++], sum->split = t[k++], sum->decided_interval = t[k++];
@@ -503,8 +504,10 @@ static void reduce_stats(const oct_stats_t *mine, oct_stats_t *sum)
         sum->leaves_by_depth[d] = t[k++], sum->cells_by_depth[d] = t[k++];
         sum->tape_length_sum_by_depth[d] = t[k++], sum->split_by_depth[d] = t[k++];
     }
-    sum->tape_clauses_evaluated = tc;
-    sum->max_error_bound = te;
+    sum->tape_clauses_evaluated = tu[0];
+    sum->leaves_certain = tu[1];
+    sum->max_error_bound = te[0];
+    sum->certain_time_s = te[1];
 }
 
 /* This rank's pieces (--cells F.pcsv, --vtu F.pvtu) into g; rank 0 also the
@@ -711,6 +714,13 @@ int cli_mpi_build(const build_job_t *job, bool quiet)
         if (oct_plan_finish(from, flags, &part, &err))
             rc = EXIT_RUNTIME;
     }
+    /* --certain: a leaf's witnesses depend on the leaf alone (its box and its
+       pruned tape, octree/README.md), so each rank certifies its part, leaf
+       for leaf as the single build would, and rank 0 the gathered tree */
+    if (!rc && job->certain &&
+        ((part && oct_certify(part, s->tape, threads, &err)) ||
+         (tree && oct_certify(tree, s->tape, threads, &err))))
+        rc = EXIT_RUNTIME;
     if ((rc = cli_mpi_agree(rc ? (fprintf(stderr, "ivoct build: %s\n", err.msg), rc) : rc)))
         goto out;
 
@@ -743,6 +753,9 @@ int cli_mpi_build(const build_job_t *job, bool quiet)
         unsigned long long peak_ull = peak, max_peak = 0;
         if (M.rank == 0 && part)
             part_stats = part->stats; /* built + the top's counts */
+        if (part) /* --certain */
+            part_stats.leaves_certain = part->stats.leaves_certain,
+            part_stats.certain_time_s = part->stats.certain_time_s;
         reduce_stats(&part_stats, &sum.stats);
         MPI_Reduce(&sub_nodes, &all_sub_nodes, 1, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
         MPI_Reduce(&my_threads, &all_threads, 1, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);

@@ -7,6 +7,7 @@
 # rows of the CSV pieces (.pcsv) are the single CSV's rows, the leaves of the pieces
 # add up to the stats' leaves, the .pvtu read by VTK's vtkXMLPUnstructuredGridReader
 # (python3-vtk9) has as many cells as the stats say leaves, and the stats' counts
+# are the single build's; with --certain the pieces' rows, the .ivo and leaves_certain
 # are the single build's.  Then the failures: a bad scene and a bad option (exit 2 on
 # every rank, one message), an unwritable folder and a piece only one rank cannot
 # write (exit 1, one message naming it), each leaving no piece, index, temporary,
@@ -82,6 +83,30 @@ for sc in "${scenes[@]}"; do
             fi
         done
     done
+done
+
+# --certain: the pieces' rows (with their certain and witness columns) and the gathered
+# .ivo are the single build's, the reduced leaves_certain too (with pieces and with the
+# stats alone)
+for sc in gumdrop csg-64-spheres; do
+    run 0 "$sc --certain: single" -- build "$SCENES/$sc.ini" --depth $depth --certain \
+        --save "$W/one.ivo" --cells "$W/one.csv" --stats "$W/one.json" --quiet || continue
+    want=$(json_key "$W/one.json" "['leaves_certain']")
+    [ "$want" -gt 0 ] && ok || fail "$sc --certain: no certain leaf in the single build"
+    rm -f "$W"/p*
+    mpirun_ivoct 3 0 "$sc --certain: 3 ranks" -- build "$SCENES/$sc.ini" --depth $depth --certain \
+        --save "$W/p.ivo" --cells "$W/p.pcsv" --stats "$W/p.json" --quiet && {
+        cmp -s "$W/one.ivo" "$W/p.ivo" && ok || fail "$sc --certain, 3 ranks: the .ivo differs"
+        [ "$(rows "$W/one.csv" | md5sum)" = "$(rows "$W"/p_*.csv | md5sum)" ] && ok ||
+            fail "$sc --certain, 3 ranks: the pieces' rows are not the single CSV's"
+        [ "$(json_key "$W/p.json" "['leaves_certain']")" = "$want" ] && ok ||
+            fail "$sc --certain, 3 ranks: leaves_certain $(json_key "$W/p.json" "['leaves_certain']"), single $want"
+    }
+    mpirun_ivoct 2 0 "$sc --certain: stats alone" -- build "$SCENES/$sc.ini" --depth $depth \
+        --certain --stats "$W/s.json" --quiet && {
+        [ "$(json_key "$W/s.json" "['leaves_certain']")" = "$want" ] && ok ||
+            fail "$sc --certain, stats alone: leaves_certain $(json_key "$W/s.json" "['leaves_certain']"), single $want"
+    }
 done
 
 # one-file exports over MPI are the single build's files

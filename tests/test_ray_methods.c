@@ -67,27 +67,6 @@
 enum { SRC_BOX, SRC_OCTREE, NSRC };
 static const char *const SRC_NAME[NSRC] = {"box", "octree"};
 
-static int image_size(void)
-{
-    int n = (int)(64 * sqrt(tu_scale()) + 0.5);
-    return n < 16 ? 16 : n;
-}
-
-/* The octree of the scene's [octree] settings (depth 6 at most in the
- * sanitizer build). */
-static oct_tree_t *scene_tree(const scene_t *s)
-{
-    oct_params_t p = s->octree;
-    p.depth = tu_scale() < 1 && p.depth > 6 ? 6 : p.depth;
-    p.threads = 2;
-    oct_tree_t *t = NULL;
-    ivoct_error_t err;
-    ivoct_error_clear(&err);
-    if (oct_build(s->tape, s->box, &p, &t, &err))
-        fail_msg("%s: oct_build: %s", s->source.name, err.msg);
-    return t;
-}
-
 static void render(const scene_t *s, const ray_camera_t *cam, const oct_tree_t *tree,
                    ray_method_t m, ray_image_t *img, ray_stats_t *st)
 {
@@ -140,7 +119,7 @@ static size_t judge_sampling(const rck_ref_t *R, const ray_image_t *img, const c
 static void test_methods_against_reference(void **state)
 {
     (void)state;
-    const int size = image_size();
+    const int size = tu_image_size(64);
     const size_t npix = (size_t)size * size;
     printf("%dx%d pixels; exempt pixels allowed: %d per mille of the rays in the box\n", size,
            size, EXEMPT_PERMILLE);
@@ -160,7 +139,7 @@ static void test_methods_against_reference(void **state)
         rck_ref_t R;
         rck_reference(s.tape, s.box, &cam, &R);
         assert_true(R.n_hit > 0); /* not vacuous: the surface is in view */
-        oct_tree_t *tree = scene_tree(&s);
+        oct_tree_t *tree = tu_scene_octree(&s);
         ray_image_t img[NSRC][RAY_METHOD_COUNT];
         for (int j = 0; j < NSRC; j++)
             for (int m = 0; m < RAY_METHOD_COUNT; m++) {

@@ -494,12 +494,6 @@ static void render(const scene_t *s, const oct_tree_t *tree, int use_slabs, int 
         fail_msg("render: %s", err.msg);
 }
 
-static int image_size(void)
-{
-    int n = (int)(64 * sqrt(tu_scale()) + 0.5);
-    return n < 16 ? 16 : n;
-}
-
 /* Both miss, or both hit with t equal to 1e-12 relative. */
 static int agree(const ray_image_t *a, const ray_image_t *b, size_t i)
 {
@@ -554,7 +548,7 @@ static size_t compare(const char *surface, ray_method_t m, const char *how, cons
 static void test_same_image(void **state)
 {
     (void)state;
-    const int size = image_size();
+    const int size = tu_image_size(64);
     const size_t npix = (size_t)size * size;
     enum { NONE, OCT, SLABS, NSRC };
     static const char *const how[NSRC] = {"none", "octree", "slabs"};

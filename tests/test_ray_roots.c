@@ -49,16 +49,10 @@
 #include "support/ray_reference.h"
 #include "support/testutil.h"
 
-static int image_size(void)
-{
-    int n = (int)(64 * sqrt(tu_scale()) + 0.5);
-    return n < 16 ? 16 : n;
-}
-
 static void test_roots_against_oracle(void **state)
 {
     (void)state;
-    const int size = image_size();
+    const int size = tu_image_size(64);
     const size_t npix = (size_t)size * size;
     printf("%-15s %7s %6s %9s %10s %12s\n", "surface", "in box", "hits", "ambiguous",
            "band-used", "max rel err");

@@ -56,25 +56,6 @@
 enum { SRC_BOX, SRC_OCTREE, NSRC };
 static const char *const SRC_NAME[NSRC] = {"box", "octree"};
 
-static int image_size(void)
-{
-    int n = (int)(48 * sqrt(tu_scale()) + 0.5);
-    return n < 16 ? 16 : n;
-}
-
-static oct_tree_t *scene_tree(const scene_t *s)
-{
-    oct_params_t p = s->octree;
-    p.depth = tu_scale() < 1 && p.depth > 6 ? 6 : p.depth;
-    p.threads = 2;
-    oct_tree_t *t = NULL;
-    ivoct_error_t err;
-    ivoct_error_clear(&err);
-    if (oct_build(s->tape, s->box, &p, &t, &err))
-        fail_msg("%s: oct_build: %s", s->source.name, err.msg);
-    return t;
-}
-
 /* To the right of the target and above it, seen from the eye, as far from the
  * target as the eye: a light from the side, so that every surface casts
  * shadows and holds attached ones. */
@@ -86,6 +67,17 @@ static void light_of(const ray_camera_t *cam, double light[3])
     r = sqrt(r);
     for (int a = 0; a < 3; a++)
         light[a] = cam->target[a] + r * (0.8 * cam->right[a] + 0.6 * cam->vup[a]);
+}
+
+/* The scene's camera at size x size, and light_of it. */
+static void camera_and_light(const scene_t *s, int size, ray_camera_t *cam, double light[3])
+{
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    assert_int_equal(ray_camera_init(cam, s->camera.eye, s->camera.target, s->camera.up,
+                                     s->camera.fov, size, size, &err),
+                     0);
+    light_of(cam, light);
 }
 
 static void render(const scene_t *s, const ray_camera_t *cam, const oct_tree_t *tree,
@@ -139,7 +131,7 @@ static shadow_ref_t reference(rref_t *ref, const scene_t *s, const ray_camera_t 
 static void test_shadows_against_reference(void **state)
 {
     (void)state;
-    const int size = image_size();
+    const int size = tu_image_size(48);
     printf("%dx%d pixels\n", size, size);
     printf("%-15s %-7s %-13s %5s %6s %6s %6s %6s %6s %9s %9s\n", "surface", "source", "method",
            "hits", "shadow", "lit", "undec", "u-lit", "exempt", "evals/ray", "shadow/pr");
@@ -148,18 +140,13 @@ static void test_shadows_against_reference(void **state)
         const char *name = tu_comparison_surfaces[k];
         scene_t s;
         tu_load_scene(name, &s);
-        ivoct_error_t err;
-        ivoct_error_clear(&err);
         ray_camera_t cam;
-        assert_int_equal(ray_camera_init(&cam, s.camera.eye, s.camera.target, s.camera.up,
-                                         s.camera.fov, size, size, &err),
-                         0);
         double light[3];
-        light_of(&cam, light);
+        camera_and_light(&s, size, &cam, light);
         assert_true(rref_supported(s.tape));
         rref_t *ref = rref_new(s.tape);
         assert_non_null(ref);
-        oct_tree_t *tree = scene_tree(&s);
+        oct_tree_t *tree = tu_scene_octree(&s);
         size_t ref_shadowed = 0, ref_lit = 0;
         for (int j = 0; j < NSRC; j++)
             for (int m = 0; m < RAY_METHOD_COUNT; m++) {
@@ -244,19 +231,16 @@ static void test_shadows_threads_tapes_vti(void **state)
 {
     (void)state;
     const char *names[] = {"gumdrop", "csg-64-spheres"};
-    const int size = image_size();
+    const int size = tu_image_size(48);
     for (size_t k = 0; k < sizeof names / sizeof *names; k++) {
         scene_t s;
         tu_load_scene(names[k], &s);
         ivoct_error_t err;
         ivoct_error_clear(&err);
         ray_camera_t cam;
-        assert_int_equal(ray_camera_init(&cam, s.camera.eye, s.camera.target, s.camera.up,
-                                         s.camera.fov, size, size, &err),
-                         0);
         double light[3];
-        light_of(&cam, light);
-        oct_tree_t *tree = scene_tree(&s);
+        camera_and_light(&s, size, &cam, light);
+        oct_tree_t *tree = tu_scene_octree(&s);
         ray_image_t one, two;
         ray_stats_t st1, st2;
         render(&s, &cam, tree, NULL, RAY_NEWTON_AH, light, 1, &one, &st1);
@@ -267,7 +251,6 @@ static void test_shadows_threads_tapes_vti(void **state)
         if (tape_has_choices(s.tape)) {
             /* leaf tapes need the light's margin too */
             double margin = fmax(ray_tape_margin(&cam, s.box), ray_light_tape_margin(light, s.box));
-            assert_true(margin >= ray_light_tape_margin(light, s.box));
             oct_leaf_tapes_t *lt = NULL;
             assert_int_equal(oct_leaf_tapes_build(tree, s.tape, margin, 1.0, &lt, &err), 0);
             ray_image_t with;

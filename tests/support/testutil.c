@@ -155,6 +155,25 @@ void tu_result_row(const char *suite, const char *name, const char *outcome, dou
     fclose(f);
 }
 
+oct_tree_t *tu_scene_octree(const scene_t *s)
+{
+    oct_params_t p = s->octree;
+    p.depth = tu_scale() < 1 && p.depth > 6 ? 6 : p.depth;
+    p.threads = 2;
+    oct_tree_t *t = NULL;
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    if (oct_build(s->tape, s->box, &p, &t, &err))
+        fail_msg("%s: oct_build: %s", s->source.name, err.msg);
+    return t;
+}
+
+int tu_image_size(int full)
+{
+    int n = (int)(full * sqrt(tu_scale()) + 0.5);
+    return n < 16 ? 16 : n;
+}
+
 void tu_load_scene(const char *name, scene_t *s)
 {
     char path[4096];

@@ -79,6 +79,14 @@ extern const char *const tu_comparison_surfaces[TU_N_COMPARISON];
  * is the path itself.  Fails the current test on error, with the position. */
 void tu_load_scene(const char *name, scene_t *s);
 
+/* The octree of a scene's [octree] settings, on 2 threads, at most depth 6
+ * in the sanitizer build (tu_scale() < 1).  Fails the current test on error. */
+oct_tree_t *tu_scene_octree(const scene_t *s);
+
+/* The side of a test image: full pixels scaled by sqrt(tu_scale()), at least
+ * 16 (so that the pixel count scales with IVOCT_TEST_SCALE). */
+int tu_image_size(int full);
+
 /* The whole file, NUL-terminated (not counted in *n; n may be NULL), malloc'd;
  * fails the current test when it cannot be read.  tu_read_stream: the same
  * for what is left of an open stream (rewind it first for the whole). */

@@ -25,7 +25,10 @@
  * rays through each surface's box, every certified method: it misses exactly
  * where the full search misses; where it reports a root, the reference has a
  * root in its bracket [t_lo, t_hi], and the full search's first hit is not
- * after it.
+ * after it.  The same ray cut into 1..8 segments (ray_find_root_n, which the
+ * shadow rays feed up to RAY_MAX_SEGMENTS leaves at a time): the same
+ * hit/miss, a certified root at the same t to 1e-12, `which` the segment
+ * holding the bracket's start, and with any_root the same misses.
  *
  * Then, on gumdrop and on the CSG union (leaf tapes): 1 and 2 threads give
  * the same buffers byte for byte; leaf tapes built with the light's margin
@@ -338,6 +341,28 @@ static void test_any_root(void **state)
                         bad = "the any-hit search took more passes than the full one";
                 }
                 misses += ra.kind == RAY_MISS;
+                /* the ray in pieces */
+                int nseg = 1 + r % RAY_MAX_SEGMENTS, which = -2;
+                double c0[RAY_MAX_SEGMENTS], c1[RAY_MAX_SEGMENTS];
+                for (int j = 0; j < nseg; j++) {
+                    c0[j] = j ? c1[j - 1] : t0;
+                    c1[j] = j + 1 < nseg ? tu_lerp(c0[j], t1, tu_uniform(&rng) * 2.0 / (nseg - j)) : t1;
+                }
+                ray_result_t rn, rna;
+                ray_find_root_n(s.tape, ws, (ray_method_t)m, &full, o, d, nseg, c0, c1, &rn, &which);
+                ray_find_root_n(s.tape, ws, (ray_method_t)m, &any, o, d, nseg, c0, c1, &rna, NULL);
+                int tangent = rn.kind == RAY_HIT_TANGENT || rf.kind == RAY_HIT_TANGENT ||
+                              rn.kind == RAY_HIT_BUDGET || rf.kind == RAY_HIT_BUDGET;
+                if (!bad && !tangent && (rn.kind == RAY_MISS) != (rf.kind == RAY_MISS))
+                    bad = "in pieces, another hit/miss than in one segment";
+                else if (!bad && rn.kind == RAY_HIT_ROOT && rf.kind == RAY_HIT_ROOT &&
+                         !(fabs(rn.t - rf.t) <= 1e-12 * fabs(rf.t)))
+                    bad = "in pieces, another root than in one segment";
+                else if (!bad && rn.kind != RAY_MISS &&
+                         !(which >= 0 && c0[which] <= rn.t_lo && rn.t_lo <= c1[which]))
+                    bad = "which is not the segment that holds the bracket's start";
+                else if (!bad && (rna.kind == RAY_MISS) != (rn.kind == RAY_MISS))
+                    bad = "in pieces, the any-hit search and the full one disagree on hit/miss";
                 if (bad) {
                     if (failures < 10)
                         printf("%s %s ray %d: %s (any: kind %d [%.17g, %.17g]; full: kind %d "

@@ -106,6 +106,14 @@ typedef struct build_job {
     bool certain;                 /* --certain: oct_certify after the build */
 } build_job_t;
 
+/* The memory budget of the outputs (cmd_build.c): whether tree's storage
+ * plus what the most demanding of the outputs given (non-NULL paths) needs
+ * fits in budget (0, else -1 with err naming the option); and the threads
+ * that format --cells within it (threads, or fewer). */
+int build_check_export_memory(const struct oct_tree *t, const char *cells, const char *save,
+                              const exports_t *ex, size_t budget, ivoct_error_t *err);
+int build_cells_threads(const struct oct_tree *t, int threads, size_t budget);
+
 /* Write every output of job for tree into g (not committed): EXIT_OK, or
  * EXIT_RUNTIME with err set. */
 int build_write_outputs(const build_job_t *job, const struct oct_tree *tree,

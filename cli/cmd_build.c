@@ -198,8 +198,8 @@ static double surface_voxels(const oct_tree_t *t)
 
 /* The threads that format --cells: the build's, or fewer when their buffers
  * would not fit the budget beside the tree (one thread's are the CSV's
- * minimum, which check_export_memory checks). */
-static int cells_threads(const oct_tree_t *t, int threads, size_t budget)
+ * minimum, which build_check_export_memory checks). */
+int build_cells_threads(const oct_tree_t *t, int threads, size_t budget)
 {
     int n = threads > 0 ? threads : t->stats.threads;
     while (budget && n > 1 && tree_bytes(t) + (double)exp_cells_memory(t, n) > (double)budget)
@@ -207,8 +207,8 @@ static int cells_threads(const oct_tree_t *t, int threads, size_t budget)
     return n;
 }
 
-static int check_export_memory(const oct_tree_t *t, const char *cells, const char *save,
-                               const exports_t *ex, size_t budget, ivoct_error_t *err)
+int build_check_export_memory(const oct_tree_t *t, const char *cells, const char *save,
+                              const exports_t *ex, size_t budget, ivoct_error_t *err)
 {
     double voxels = ex->vdb || ex->mesh ? surface_voxels(t) : 0;
     struct {
@@ -245,11 +245,12 @@ int build_write_outputs(const build_job_t *job, const oct_tree_t *tree, io_group
     const char *cells = job->cells, *save = job->save, *stats = job->stats;
     const exports_t *ex = &job->ex;
     size_t max_memory = job->max_memory;
-    if (max_memory && check_export_memory(tree, cells, save, ex, max_memory, err))
+    if (max_memory && build_check_export_memory(tree, cells, save, ex, max_memory, err))
         return EXIT_RUNTIME;
     if (cells)
         cli_test_pause("cells");
-    if (cells && write_cells(tree, g, cells, cells_threads(tree, job->threads, max_memory), err))
+    if (cells &&
+        write_cells(tree, g, cells, build_cells_threads(tree, job->threads, max_memory), err))
         return EXIT_RUNTIME;
     if (save && write_save(s, tree, g, save, err))
         return EXIT_RUNTIME;

@@ -517,6 +517,14 @@ static int write_pieces(const build_job_t *job, const oct_tree_t *part, const ui
 {
     const char *cells = is_index(job->cells, ".pcsv") ? job->cells : NULL;
     const char *vtu = is_index(job->ex.vtu, ".pvtu") ? job->ex.vtu : NULL;
+    /* the budget holds per rank: its part and what its pieces need beside it,
+       as for one process's outputs */
+    const exports_t piece_ex = {.vtu = vtu};
+    if (job->max_memory &&
+        build_check_export_memory(part, cells, NULL, &piece_ex, job->max_memory, err))
+        return -1;
+    const int cells_threads =
+        job->max_memory ? build_cells_threads(part, job->threads, job->max_memory) : job->threads;
     int rc = 0;
     char **sources = calloc((size_t)M.size, sizeof *sources);
     if (!sources) {
@@ -532,7 +540,7 @@ static int write_pieces(const build_job_t *job, const oct_tree_t *part, const ui
         cli_test_pause(pass == 0 ? "cells" : "vtu");
         rc = !mine || io_group_reserve(g, mine, &tmp, err);
         if (!rc)
-            rc = pass == 0 ? exp_cells(part, tmp, job->threads, err)
+            rc = pass == 0 ? exp_cells(part, tmp, cells_threads, err)
                            : exp_vtu(part, &job->scene->source, tmp, err);
         free(mine);
         if (!rc && M.rank == 0) {

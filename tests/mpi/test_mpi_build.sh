@@ -9,8 +9,8 @@
 # (python3-vtk9) has as many cells as the stats say leaves, and the stats' counts
 # are the single build's; with --certain the pieces' rows, the .ivo and leaves_certain
 # are the single build's.  Then the failures: a bad scene and a bad option (exit 2 on
-# every rank, one message), an unwritable folder and a piece only one rank cannot
-# write (exit 1, one message naming it), each leaving no piece, index, temporary,
+# every rank, one message), an unwritable folder, pieces past --max-memory and a piece
+# only one rank cannot write (exit 1, one message naming it), each leaving no piece, index, temporary,
 # and a file that was at an output's path untouched.
 #
 # Needs IVOCT_BIN, IVOCT_SOURCE_DIR and IVOCT_MPIEXEC (mpirun), as set by ctest.
@@ -155,6 +155,18 @@ mpirun_ivoct 2 2 ".phtg" -- build "$SCENES/sphere.ini" --htg "$F/p.phtg" && one_
 mpirun_ivoct 3 1 "missing folder" -- build "$SCENES/sphere.ini" --depth 4 --save "$F/keep.ivo" \
     --vtu "$F/none/p.pvtu" && one_message "missing folder" "none/p_0.vtu"
 nothing_left "missing folder"
+# --max-memory holds for each rank's pieces: at 2 MB the build fits, the .vtu pieces do
+# not (about 500 bytes a leaf beside the part: the rank with the larger part, which work
+# sharing makes vary from run to run, has half of gumdrop's 10 000 leaves at depth 5 or
+# more)
+mpirun_ivoct 2 1 "pieces past the budget" -- build "$SCENES/gumdrop.ini" --depth $depth \
+    --max-memory 2M --vtu "$F/p.pvtu" &&
+    one_message "pieces past the budget" "--vtu needs" "past the memory budget of 2.0 MB"
+nothing_left "pieces past the budget"
+mpirun_ivoct 2 0 "pieces within the budget" -- build "$SCENES/gumdrop.ini" --depth $depth \
+    --max-memory 64M --cells "$F/q.pcsv" --vtu "$F/q.pvtu" --quiet &&
+    { [ -s "$F/q.pvtu" ] && [ -s "$F/q_1.vtu" ] && ok || fail "pieces within the budget: no files"; }
+rm -f "$F"/q*
 # only rank 1 cannot write its piece: the others' files must not stay either
 mkdir "$F/p_1.vtu"
 mpirun_ivoct 3 1 "one rank's piece" -- build "$SCENES/sphere.ini" --depth 4 --save "$F/keep.ivo" \

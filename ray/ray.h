@@ -254,9 +254,11 @@ ray_source_t ray_octree_source(ray_octree_source_t *os, const oct_tree_t *tree);
 double ray_tape_margin(const ray_camera_t *cam, const double box[6]);
 
 /* The same for the shadow rays of a point light (ray_render_opts_t.light):
- * they start at the light and end in box, t in [0, 1] along q - light
+ * they run from the light (or, for the piece searched first, from a point
+ * just before q) to q in box, t in [0, 1] along q - light
  * (ray_shadow_origin), so the margin is 2^-40 times a bound on
- * |o_i| + 2|t·d_i| from the box and the light.  A render with a light needs the larger of the two margins. */
+ * |o_i| + 2|t·d_i| from the box and the light.  A render with a light needs
+ * the larger of the two margins. */
 double ray_light_tape_margin(const double light[3], const double box[6]);
 
 /* ---- rendering -------------------------------------------------------------------- */

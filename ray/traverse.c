@@ -319,14 +319,16 @@ double ray_tape_margin(const ray_camera_t *cam, const double box[6])
 
 double ray_light_tape_margin(const double light[3], const double box[6])
 {
-    /* the ray starts at the light and ends at q, in the box: |o_i| <=
-     * |light|_inf, and |t·d_i| <= |q_i - light_i| <= |light|_inf + the box's
-     * largest |coordinate|, for t in [0, 1] */
+    /* a shadow ray starts at the light, the piece searched first for an
+     * attached shadow at a point before q (within rounding of the box), and
+     * both end at q, in the box: |o_i| <= max(|light|_inf, the box's largest
+     * |coordinate|) and |t·d_i| <= |q_i - light_i| <= |light|_inf + that
+     * coordinate, for t in [0, 1] */
     double b = 0, l = 0;
     for (int a = 0; a < 3; a++) {
         b = fmax(b, fmax(fabs(box[2 * a]), fabs(box[2 * a + 1])));
         l = fmax(l, fabs(light[a]));
     }
-    double o = l * (1 + 0x1p-40), t = (l + b) * (1 + 0x1p-40);
+    double o = fmax(l, b) * (1 + 0x1p-40), t = (l + b) * (1 + 0x1p-40);
     return iv_up(0x1p-40 * (o + 2 * t));
 }

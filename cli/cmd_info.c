@@ -10,10 +10,11 @@
 static const char SYNOPSIS[] =
     "usage: ivoct info FILE\n"
     "\n"
-    "Summarise a file of ivoct build: an octree (.ivo: its scene, box, depth, tests,\n"
-    "node and leaf counts and leaves per depth), or an export (.vtu, .htg, .vdb, a\n"
-    ".vtp mesh: its scene, cells, leaves per depth, arrays or grids).  Files are\n"
-    "recognised by content.  A truncated or corrupt file is reported (exit 2).\n";
+    "Summarise a file of ivoct build: an octree (.ivo, or the index .pivo of its\n"
+    "pieces: its scene, box, depth, tests, node and leaf counts and leaves per\n"
+    "depth), or an export (.vtu, .htg, .vdb, a .vtp mesh: its scene, cells,\n"
+    "leaves per depth, arrays or grids).  Files are recognised by content.  A\n"
+    "truncated or corrupt file is reported (exit 2).\n";
 
 static int info_ivo(const char *path)
 {
@@ -25,7 +26,11 @@ static int info_ivo(const char *path)
         fprintf(stderr, "ivoct info: %s\n", err.msg);
         return EXIT_USAGE;
     }
-    printf("file:     %s (ivoct octree)\n", path);
+    int pieces = oct_index_pieces(path);
+    if (pieces)
+        printf("file:     %s (ivoct octree in %d piece%s)\n", path, pieces, pieces > 1 ? "s" : "");
+    else
+        printf("file:     %s (ivoct octree)\n", path);
     printf("scene:    %s\n", src.name);
     for (size_t i = 0; i < src.n_lets; i++)
         printf("let:      %s = %s\n", src.let_names[i], src.let_texts[i]);

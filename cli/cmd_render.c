@@ -328,7 +328,8 @@ int cmd_render(int argc, char **argv)
         {.name = "--help", .alias = "-h", .kind = CLI_HELP},
         {.name = "SCENE", .kind = CLI_OPERAND, .target = &scene_path},
         {.name = "--octree", .kind = CLI_STRING, .target = &octree, .arg = "F.ivo",
-         .help = "use a saved octree (ivoct build --save) instead of building\n"
+         .help = "use a saved octree (ivoct build --save: F.ivo, or F.pivo, the\n"
+                 "index of the pieces saved under mpirun) instead of building\n"
                  "one: it must come from the same f (and let.*) and box as\n"
                  "SCENE, which still gives the camera and render settings"},
         {.name = "--no-octree", .kind = CLI_FLAG, .target = &no_octree,

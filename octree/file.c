@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "../io/io.h"
+#include "file_internal.h"
 #include "octree.h"
 
 #define MAGIC "IVOCTREE"
@@ -353,6 +354,20 @@ static const char *check_structure(const oct_tree_t *t)
 
 int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_t *err)
 {
+    /* an index of pieces begins with its own magic; anything else is read as
+       one tree, whose loader says what is wrong with it */
+    char magic8[8];
+    FILE *f = fopen(path, "rb");
+    int pieces = f && fread(magic8, 1, 8, f) == 8 && memcmp(magic8, PIECES_MAGIC, 8) == 0;
+    if (f)
+        fclose(f);
+    return pieces ? file_load_pieces(path, out, src, err)
+                  : file_load_tree(path, out, src, NULL, err);
+}
+
+int file_load_tree(const char *path, oct_tree_t **out, oct_source_t *src, uint64_t *checksum,
+                   ivoct_error_t *err)
+{
     *out = NULL;
     if (src)
         memset(src, 0, sizeof *src);
@@ -361,7 +376,6 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
         ivoct_error_set(err, "cannot open %s", path);
         return -1;
     }
-    /* the magic first, so that a device or a huge foreign file is not read whole */
     char magic8[8];
     if (fread(magic8, 1, 8, f) != 8 || memcmp(magic8, MAGIC, 8) != 0) {
         fclose(f);
@@ -409,7 +423,8 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
         why = "not an ivoct octree file (bad magic)";
         goto fail;
     }
-    if (n < 8 + 8 || fnv1a(data, n - 8) != (r.at = n - 8, get_u64(&r))) {
+    uint64_t stored = 0;
+    if (n < 8 + 8 || fnv1a(data, n - 8) != (r.at = n - 8, stored = get_u64(&r))) {
         why = "checksum mismatch (truncated or corrupt file)";
         goto fail;
     }
@@ -536,6 +551,8 @@ int oct_load(const char *path, oct_tree_t **out, oct_source_t *src, ivoct_error_
         }
     free(data);
     *out = t;
+    if (checksum)
+        *checksum = stored;
     if (src)
         *src = s;
     else

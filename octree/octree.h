@@ -358,9 +358,37 @@ typedef struct oct_source {
 int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
              ivoct_error_t *err);
 /* Read and validate (magic, version, sizes, checksum, structure); a truncated
- * or corrupt file is an error, never a crash.  src may be NULL. */
+ * or corrupt file is an error, never a crash.  src may be NULL.  An index of
+ * pieces (below) is read as the whole tree. */
 int oct_load(const char *path, oct_tree_t **tree, oct_source_t *src, ivoct_error_t *err);
 void oct_source_free(oct_source_t *src);
+
+/* ---- a tree in pieces (.pivo: `ivoct build --save F.pivo` under mpirun) ------------
+ * Each process saves its part of the tree (oct_plan_finish with OCT_PLAN_PART)
+ * with oct_save, and one of them writes the index, a text file:
+ *   ivoct-pieces 1 pieces=N leaves=L
+ *   # a comment
+ *   FILE,LEAVES,CHECKSUM          one line per piece
+ * FILE relative to the index's folder (or absolute), LEAVES its leaf count,
+ * CHECKSUM the 16 hex digits of the checksum that ends it (oct_file_checksum).
+ * oct_load reads the index as the whole tree: every piece is loaded and
+ * validated, must be the file the index names (checksum, leaves) and of the
+ * same build as the first (scene, box, depth, tests, refine, slabs, certain
+ * codes), and their union is taken cell by cell from the root: where one
+ * piece splits a cell or holds a surface leaf, the others have the empty
+ * OCT_OUTSIDE cell of a subtree they do not hold.  Two pieces with the same
+ * leaf, or that disagree otherwise, are an error naming both and the cell.
+ * The result is the tree of the single build: the same nodes, leaves (in
+ * Morton order), slabs and certain codes; its node array is laid out in
+ * depth-first order, so oct_save of it is not that file byte for byte.
+ * Every piece is held in memory while the tree is put together. */
+/* The number of pieces path's index names; 0 when path is not an index. */
+int oct_index_pieces(const char *path);
+/* The checksum that ends a tree file (the last 8 bytes, not verified). */
+int oct_file_checksum(const char *path, uint64_t *sum, ivoct_error_t *err);
+/* Write the index of n pieces (atomically, io_open/io_commit). */
+int oct_save_index(const char *path, const char *const *sources, const uint64_t *leaves,
+                   const uint64_t *checksums, int n, ivoct_error_t *err);
 
 /* ---- settings by name (params.c) ----------------------------------------------
  * What scene files ([octree] depth, tests, refine) and the command line give.

@@ -191,6 +191,9 @@ static int write_stats(io_group_t *g, const char *path, const scene_t *s, ray_me
             "  \"leaves_visited\": %llu,\n  \"threads\": %d",
             (unsigned long long)st->tape_evals, tape_simd_name(), (unsigned long long)st->segments,
             (unsigned long long)st->leaves, st->threads);
+    fprintf(o,
+            ",\n  \"beams\": %llu,\n  \"rays_decided_by_beam\": %llu",
+            (unsigned long long)st->beams, (unsigned long long)st->rays_decided_by_beam);
     fputs(",\n  \"light\": ", o);
     if (ro->light_on) {
         for (int a = 0; a < 3; a++) {
@@ -321,7 +324,8 @@ int cmd_render(int argc, char **argv)
     int size[2] = {0, 0};
     size_t max_memory = 0;
     double light[3] = {0, 0, 0};
-    bool quiet = false, no_octree = false, no_leaf_tapes = false, method_given = false,
+    bool quiet = false, no_octree = false, no_leaf_tapes = false, no_beams = false,
+         method_given = false,
          size_given = false, light_given = false, no_light = false;
 
     const cli_option_t options[] = {
@@ -338,6 +342,10 @@ int cmd_render(int argc, char **argv)
          .help = "search every leaf with the scene's tape, not with the tape\n"
                  "pruned to the leaf (which a scene with min, max or abs gets\n"
                  "by default when it shortens the tapes; the image is the same)"},
+        {.name = "--no-beams", .kind = CLI_FLAG, .target = &no_beams,
+         .help = "walk the octree ray by ray, not first a tile's rays together\n"
+                 "as beams (which decide the rays that meet no surface leaf;\n"
+                 "the image and the files are the same)"},
         {.name = "--method", .kind = CLI_CUSTOM, .target = &method, .parse = parse_method,
          .given = &method_given, .arg = "M",
          .help = "mitchell | newton | newton-ah | mrfro | mrfro-newton |\n"
@@ -517,6 +525,7 @@ int cmd_render(int argc, char **argv)
     ray_render_opts_default(&ro);
     ro.method = method;
     ro.threads = (int)threads;
+    ro.no_beams = no_beams;
     if (light_given || (s.has_light && !no_light)) {
         ro.light_on = 1;
         memcpy(ro.light, light_given ? light : s.light, sizeof ro.light);
@@ -612,6 +621,8 @@ int cmd_render(int argc, char **argv)
         total.shadowed += st.shadowed;
         total.shadow_undecided += st.shadow_undecided;
         total.shadow_evals += st.shadow_evals;
+        total.beams += st.beams;
+        total.rays_decided_by_beam += st.rays_decided_by_beam;
         total.time_s += st.time_s;
         total.threads = st.threads;
         if (rank > 0 && parts > 1)

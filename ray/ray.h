@@ -334,6 +334,11 @@ typedef struct ray_stats {
      * are lit), and the tape passes and source segments they took (part of
      * tape_evals, segments and leaves above) */
     uint64_t shadow_rays, shadowed, shadow_undecided, shadow_evals;
+    /* beams (ray_render_opts_t.no_beams; ray/README.md, "Beams"): beam walks
+     * done (a tile, then its quarters down to 4x4 pixels while they reach a
+     * surface leaf), and primary rays decided as misses at beam level (no
+     * walk, no search of their own) */
+    uint64_t beams, rays_decided_by_beam;
     double time_s;         /* wall clock of ray_render */
     int threads;           /* threads used */
 } ray_stats_t;
@@ -350,6 +355,12 @@ typedef struct ray_render_opts {
      * lights the image and no shadow ray is cast. */
     int light_on;
     double light[3];
+    /* With the octree source, the rays of a tile are first walked through the
+     * tree together as beams (ray/README.md, "Beams"): a beam that reaches no
+     * surface leaf decides its rays as misses.  On by default (0); no_beams
+     * walks every ray alone.  The buffers and every counter but the beams'
+     * are the same either way.  Other sources have no beams. */
+    int no_beams;
     /* Called now and then with the fraction done, from one thread only; may be NULL. */
     void (*progress)(void *ctx, double fraction);
     void *progress_ctx;

@@ -6,7 +6,7 @@
 
 #include <omp.h>
 
-#include "ray.h"
+#include "beam_internal.h"
 
 #define TILE RAY_TILE
 
@@ -259,6 +259,7 @@ void ray_render_opts_default(ray_render_opts_t *o)
 typedef struct counters {
     uint64_t hits, tangent, evals, segments, leaves;
     uint64_t shadow_rays, shadowed, shadow_undecided, shadow_evals;
+    uint64_t beams, rays_decided;
 } counters_t;
 
 double ray_shadow_origin(const double eye[3], const double d[3], double t, double q[3])
@@ -336,9 +337,53 @@ static void trace(const tape_t *tape, tape_ws_t *ws, const ray_source_t *src, vo
     }
 }
 
+/* Beams: the rays of the pixels [c0, c1) x [r0, r1) of the tile whose top
+ * left pixel is (tc0, tr0), their directions already in img->dir, walked
+ * through the tree as one beam (beam.c): the directions' hull per component
+ * and the eye.  A beam that reaches no surface leaf decides its rays:
+ * misses, marked in decided[] (by pixel within the tile).  Else its quarters
+ * are tried, down to BEAM_MIN pixels a side: the walk of a beam that reaches
+ * a leaf stops there, so a beam that decides nothing costs a few descents,
+ * and the smaller beams catch more of the rays that pass by the surface. */
+#define BEAM_MIN 4
+static void beam_rect(const oct_tree_t *tree, ray_beam_ws_t *bw, const ray_camera_t *cam,
+                      const ray_image_t *img, int tc0, int tr0, int c0, int r0, int c1, int r1,
+                      unsigned char *decided, counters_t *cnt)
+{
+    double dlo[3] = {INFINITY, INFINITY, INFINITY}, dhi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int row = r0; row < r1; row++)
+        for (int col = c0; col < c1; col++) {
+            const double *d = img->dir + 3 * ((size_t)row * img->width + col);
+            for (int a = 0; a < 3; a++) {
+                dlo[a] = d[a] < dlo[a] ? d[a] : dlo[a];
+                dhi[a] = d[a] > dhi[a] ? d[a] : dhi[a];
+            }
+        }
+    cnt->beams++;
+    if (!ray_beam_reaches(tree, bw, cam->eye, dlo, dhi)) {
+        for (int row = r0; row < r1; row++)
+            for (int col = c0; col < c1; col++)
+                decided[(row - tr0) * TILE + (col - tc0)] = 1;
+        cnt->rays_decided += (uint64_t)(r1 - r0) * (uint64_t)(c1 - c0);
+        return;
+    }
+    if (c1 - c0 <= BEAM_MIN && r1 - r0 <= BEAM_MIN)
+        return;
+    int cm = c1 - c0 > BEAM_MIN ? c0 + (c1 - c0 + 1) / 2 : c1;
+    int rm = r1 - r0 > BEAM_MIN ? r0 + (r1 - r0 + 1) / 2 : r1;
+    const int cs[3] = {c0, cm, c1}, rs[3] = {r0, rm, r1};
+    for (int v = 0; v < 2; v++)
+        for (int u = 0; u < 2; u++)
+            if (cs[u] < cs[u + 1] && rs[v] < rs[v + 1])
+                beam_rect(tree, bw, cam, img, tc0, tr0, cs[u], rs[v], cs[u + 1], rs[v + 1],
+                          decided, cnt);
+}
+
+/* bw: the beams' workspace, NULL for no beams (tree is then not used). */
 static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *cam,
-                        const ray_source_t *src, void *state, const ray_render_opts_t *opts,
-                        ray_image_t *img, int tx, int ty, counters_t *cnt)
+                        const ray_source_t *src, void *state, const oct_tree_t *tree,
+                        ray_beam_ws_t *bw, const ray_render_opts_t *opts, ray_image_t *img,
+                        int tx, int ty, counters_t *cnt)
 {
     const int W = img->width, H = img->height;
     int c0, r0, c1, r1;
@@ -346,14 +391,23 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
     size_t hits[TILE * TILE];
     double t_lo[TILE * TILE]; /* the hits' bracket starts: no root before them */
     int nh = 0;
+    unsigned char decided[TILE * TILE] = {0}; /* rays decided by a beam: misses */
+
+    for (int row = r0; row < r1; row++)
+        for (int col = c0; col < c1; col++)
+            ray_camera_dir(cam, col, row, img->dir + 3 * ((size_t)row * W + col));
+    if (bw)
+        beam_rect(tree, bw, cam, img, c0, r0, c0, r0, c1, r1, decided, cnt);
 
     for (int row = r0; row < r1; row++)
         for (int col = c0; col < c1; col++) {
             size_t i = (size_t)row * W + col;
             double *d = img->dir + 3 * i;
-            ray_camera_dir(cam, col, row, d);
             ray_result_t best = {RAY_MISS, NAN, NAN, NAN, 0, 0};
-            trace(tape, ws, src, state, opts, cam->eye, d, INFINITY, 0, &best, cnt);
+            /* a decided ray: the per-ray walk would yield no segment, and
+             * trace would leave best a miss without counting anything */
+            if (!decided[(row - r0) * TILE + (col - c0)])
+                trace(tape, ws, src, state, opts, cam->eye, d, INFINITY, 0, &best, cnt);
             img->t[i] = best.t;
             img->kind[i] = (unsigned char)best.kind;
             img->hit[i] = best.kind != RAY_MISS;
@@ -499,16 +553,20 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
     double start = omp_get_wtime();
     uint64_t hits = 0, tangent = 0, evals = 0, segments = 0, leaves = 0;
     uint64_t shadow_rays = 0, shadowed = 0, shadow_undecided = 0, shadow_evals = 0;
+    uint64_t beams = 0, rays_decided = 0;
+    const ray_octree_source_t *os = opts->no_beams ? NULL : ray_source_octree(src);
+    const oct_tree_t *tree = os ? os->tree : NULL;
     int failed = 0, used = 1;
     long done = 0;
 
 #pragma omp parallel num_threads(nthreads) reduction(+ : hits, tangent, evals, segments, leaves, \
                                                         shadow_rays, shadowed, shadow_undecided, \
-                                                        shadow_evals)
+                                                        shadow_evals, beams, rays_decided)
     {
         tape_ws_t *ws = tape_ws_new(tape->n);
         void *state = malloc(src->state_size ? src->state_size : 1);
-        int ok = ws && state;
+        ray_beam_ws_t *bw = tree ? ray_beam_ws_new(tree) : NULL;
+        int ok = ws && state && (bw || !tree);
         if (!ok) {
 #pragma omp atomic write
             failed = 1;
@@ -521,7 +579,7 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
             if (!ok || !in_part(tx, ty, part, parts))
                 continue;
             counters_t cnt = {0};
-            render_tile(tape, ws, cam, src, state, opts, img, tx, ty, &cnt);
+            render_tile(tape, ws, cam, src, state, tree, bw, opts, img, tx, ty, &cnt);
             hits += cnt.hits;
             tangent += cnt.tangent;
             evals += cnt.evals;
@@ -531,12 +589,15 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
             shadowed += cnt.shadowed;
             shadow_undecided += cnt.shadow_undecided;
             shadow_evals += cnt.shadow_evals;
+            beams += cnt.beams;
+            rays_decided += cnt.rays_decided;
             long now;
 #pragma omp atomic capture
             now = ++done;
             if (opts->progress && omp_get_thread_num() == 0)
                 opts->progress(opts->progress_ctx, (double)now / (double)mine);
         }
+        ray_beam_ws_free(bw);
         free(state);
         tape_ws_free(ws);
     }
@@ -557,6 +618,8 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
         stats->shadowed = shadowed;
         stats->shadow_undecided = shadow_undecided;
         stats->shadow_evals = shadow_evals;
+        stats->beams = beams;
+        stats->rays_decided_by_beam = rays_decided;
         stats->time_s = omp_get_wtime() - start;
         stats->threads = used;
     }

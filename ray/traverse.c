@@ -21,7 +21,7 @@
 #include <stddef.h>
 #include <string.h>
 
-#include "ray.h"
+#include "beam_internal.h"
 
 /* A cell waiting on the stack.  r[a] = [entry, exit] parameters of the ray on
  * axis a (the lower bound of the crossing of the near plane, the upper bound
@@ -297,6 +297,11 @@ ray_source_t ray_octree_source(ray_octree_source_t *os, const oct_tree_t *tree)
                       offsetof(trav_state_t, stack) + (size_t)stack_cap(depth) * sizeof(entry_t),
                       trav_begin, trav_next};
     return s;
+}
+
+const ray_octree_source_t *ray_source_octree(const ray_source_t *src)
+{
+    return src && src->begin == trav_begin && src->next == trav_next ? src->ctx : NULL;
 }
 
 double ray_tape_margin(const ray_camera_t *cam, const double box[6])

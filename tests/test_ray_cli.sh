@@ -7,7 +7,9 @@
 # point light (--light, the scene's [render] light, --no-light): the shadow
 # array and the light in the .vti, the shadow counts in the JSON, the shadows
 # the same with and without the octree and for 1 and 2 threads.  (Whether the
-# shadows are right is tests/test_ray_shadows.c's job, against MPFR.)
+# shadows are right is tests/test_ray_shadows.c's job, against MPFR.)  Beams:
+# --no-beams gives the same PNG and .vti as the default, with and without a
+# light and leaf tapes, and the stats count the beams only by default.
 #
 # Needs IVOCT_BIN (the CLI) and IVOCT_SOURCE_DIR (the source tree), as set by
 # ctest; /usr/bin/python3 reads the JSON, PNG and .vti outputs.
@@ -33,7 +35,7 @@ mkdir -p "$TMP/o"
 if run 0 "render --help" -- render --help; then
     for m in mitchell newton newton-ah mrfro mrfro-newton lipschitz sampling --no-octree \
         --octree --method --size --threads --png --vti --frames --stats --quiet --light \
-        --no-light; do
+        --no-light --no-beams; do
         grep -q -- "$m" "$TMP/out" && ok || fail "render --help does not mention $m"
     done
 fi
@@ -394,5 +396,33 @@ assert stl["light"] is None and "shadow_rays" not in stl and "light" not in fdl
 assert "shadow" not in arl and arl["hit"] == hit
 EOF
 cmp -s "$TMP/l1.png" "$TMP/nl.png" && fail "the light does not change the image" || ok
+
+# ---- beams: --no-beams walks ray by ray, the files are the same -------------------------
+# the gumdrop with its light (g6.ini, above), every method, and the 64-sphere
+# union with leaf tapes (csg.ini, above), two methods; 2 threads against 1
+for m in mitchell newton newton-ah mrfro mrfro-newton lipschitz sampling; do
+    for sc in g6 csg; do
+        [ $sc = csg ] && [ $m != newton-ah ] && [ $m != mrfro ] && continue
+        f=$TMP/$sc.ini
+        run 0 "beams $sc $m" -- render "$f" --method $m --size 40x36 --threads 2 \
+            --png "$TMP/bm.png" --vti "$TMP/bm.vti" --stats "$TMP/bm.json" --quiet &&
+            run 0 "--no-beams $sc $m" -- render "$f" --method $m --size 40x36 --no-beams \
+                --threads 1 --png "$TMP/nb.png" --vti "$TMP/nb.vti" --stats "$TMP/nb.json" \
+                --quiet || continue
+        cmp -s "$TMP/bm.png" "$TMP/nb.png" && ok || fail "$sc $m: PNG differs with --no-beams"
+        cmp -s "$TMP/bm.vti" "$TMP/nb.vti" && ok || fail "$sc $m: .vti differs with --no-beams"
+        "$PY" - "$TMP/bm.json" "$TMP/nb.json" <<'EOF' && ok || fail "$sc $m: beam stats (above)"
+import json, sys
+bm, nb = (json.load(open(p)) for p in sys.argv[1:3])
+assert bm["beams"] > 0 and 0 < bm["rays_decided_by_beam"] <= bm["rays"] - bm["hits"], bm
+assert nb["beams"] == nb["rays_decided_by_beam"] == 0, nb
+for k in ("hits", "tangent_hits", "tape_evals", "segments", "leaves_visited"):
+    assert bm[k] == nb[k], k
+EOF
+    done
+done
+run 0 "--no-octree: no beams" -- render "$S" --no-octree --size 16x12 --stats "$TMP/s.json" \
+    --quiet && "$PY" -c 'import json,sys; s=json.load(open(sys.argv[1])); assert s["beams"] == 0' \
+    "$TMP/s.json" && ok || fail "--no-octree has beams"
 
 cli_summary

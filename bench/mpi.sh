@@ -3,13 +3,14 @@
 # timed test.
 #
 #   bash bench/mpi.sh [--build DIR] [--scenes "gumdrop mcmullen-k3"] [--depth 11]
-#                     [--ranks "1 2 4"] [--threads N]
+#                     [--ranks "1 2 4"] [--threads N] [--outputs "none save pieces"]
 #                     [--render-scene gumdrop] [--render-size 600x600] [--render-ranks "1 2"]
 #                     [--no-build] [--no-render]
 #
 # For each scene and rank count R: mpirun -np R ivoct build SCENE --depth D --threads N
-# --stats (--oversubscribe when R x N exceeds the cores), once with --save (the subtrees
-# gathered on rank 0) and once without.  Per run, from the stats' "mpi" object: the wall
+# --stats (--oversubscribe when R x N exceeds the cores), once for each of --outputs: none
+# (the stats alone), save (--save F.ivo: the subtrees gathered on rank 0) and pieces
+# (--save F.pivo: each rank saves its part, nothing gathered).  Per run, from the stats' "mpi" object: the wall
 # time (the slowest rank's build), the balance (max / mean rank time), the cells visited
 # per rank (the work, which oversubscription does not distort), the subtrees each rank
 # built and took from another's range, the bytes gathered on rank 0 and the requests to
@@ -33,6 +34,7 @@ threads=1
 render_scene=gumdrop
 render_size=600x600
 render_ranks="1 2"
+outputs="none save pieces"
 do_build=1
 do_render=1
 while [ $# -gt 0 ]; do
@@ -42,6 +44,7 @@ while [ $# -gt 0 ]; do
     --depth) depth=$2; shift 2 ;;
     --ranks) ranks=$2; shift 2 ;;
     --threads) threads=$2; shift 2 ;;
+    --outputs) outputs=$2; shift 2 ;;
     --render-scene) render_scene=$2; shift 2 ;;
     --render-size) render_size=$2; shift 2 ;;
     --render-ranks) render_ranks=$2; shift 2 ;;
@@ -62,22 +65,28 @@ args=(--oversubscribe)
 # the gather of large messages: plain copies where CMA is refused (containers), as tests/mpi/
 export OMPI_MCA_btl_vader_single_copy_mechanism=none
 if [ $do_build = 1 ]; then
-echo "scene,depth,ranks,threads,gather,leaves,time_s,balance,rank_cells_visited,rank_subtrees,rank_shared_subtrees,gather_bytes,requests,subtrees" >"$out"
+echo "scene,depth,ranks,threads,outputs,leaves,time_s,balance,rank_cells_visited,rank_subtrees,rank_shared_subtrees,gather_bytes,requests,subtrees,wall_s" >"$out"
 for sc in $scenes; do
     for r in $ranks; do
-        for gather in 0 1; do
+        for gather in $outputs; do
             save=()
-            [ $gather = 1 ] && save=(--save "$work/t.ivo")
+            [ $gather = save ] && save=(--save "$work/t.ivo")
+            [ $gather = pieces ] && save=(--save "$work/t.pivo")
+            # wall_s: the whole command (scene, build, outputs), where time_s is the build
+            t0=$(date +%s.%N)
             mpirun "${args[@]}" -np "$r" "$bin" build "$root/scenes/$sc.ini" --depth "$depth" \
                 --threads "$threads" --stats "$work/s.json" "${save[@]}" --quiet
-            /usr/bin/python3 - "$work/s.json" "$sc" "$depth" "$r" "$threads" "$gather" >>"$out" <<'PY'
+            t1=$(date +%s.%N)
+            rm -f "$work"/t*
+            /usr/bin/python3 - "$work/s.json" "$t0" "$t1" "$sc" "$depth" "$r" "$threads" "$gather" >>"$out" <<'PY'
 import json, sys
 d = json.load(open(sys.argv[1]))
 m = d["mpi"]
 j = lambda v: " ".join(str(x) for x in v)
-print(",".join([*sys.argv[2:], str(d["leaves"]), "%.3f" % d["time_s"], "%.3f" % m["balance"],
+print(",".join([*sys.argv[4:], str(d["leaves"]), "%.3f" % d["time_s"], "%.3f" % m["balance"],
                 j(m["rank_cells_visited"]), j(m["rank_subtrees"]), j(m["rank_shared_subtrees"]),
-                str(m["gather_bytes"]), str(m["requests"]), str(m["subtrees"])]))
+                str(m["gather_bytes"]), str(m["requests"]), str(m["subtrees"]),
+                "%.2f" % (float(sys.argv[3]) - float(sys.argv[2]))]))
 PY
             tail -1 "$out"
         done

@@ -322,14 +322,18 @@ int cmd_build(int argc, char **argv)
                  "(the slab n.p in [d_lo, d_hi] is empty where a leaf has none);\n"
                  "under mpirun F.pcsv writes one piece per rank, F_<rank>.csv"},
         {.name = "--save", .kind = CLI_STRING, .target = &save, .arg = "F.ivo",
-         .help = "the octree with its scene, for ivoct info and ivoct render"},
+         .help = "the octree with its scene, for ivoct info and ivoct render;\n"
+                 "under mpirun F.pivo writes one piece per rank, F_<rank>.ivo,\n"
+                 "and an index that info and render read as the whole tree"},
         {.name = "--stats", .kind = CLI_STRING, .target = &stats, .arg = "F.json",
          .help = "build statistics (keys in octree/README.md)"},
         {.name = "--vtu", .kind = CLI_STRING, .target = &ex.vtu, .arg = "F.vtu",
          .help = "surface leaves as VTK voxels (depth, f_lo, f_hi, error_bound);\n"
                  "under mpirun F.pvtu writes one piece per rank, F_<rank>.vtu"},
         {.name = "--htg", .kind = CLI_STRING, .target = &ex.htg, .arg = "F.htg",
-         .help = "the whole octree as a VTK HyperTreeGrid (see docs/paraview.md)"},
+         .help = "the whole octree as a VTK HyperTreeGrid (see docs/paraview.md);\n"
+                 "under mpirun F.phtg writes one piece per rank, F_<rank>.htg\n"
+                 "(the tree from the frontier down: docs/cluster.md)"},
         {.name = "--vdb", .kind = CLI_STRING, .target = &ex.vdb, .arg = "F.vdb",
          .help = "OpenVDB grids: surface (the leaves) and sdf (a level set)"},
         {.name = "--mesh", .kind = CLI_STRING, .target = &ex.mesh, .arg = "F",

@@ -12,9 +12,9 @@ static const char SYNOPSIS[] =
     "\n"
     "Summarise a file of ivoct build: an octree (.ivo, or the index .pivo of its\n"
     "pieces: its scene, box, depth, tests, node and leaf counts and leaves per\n"
-    "depth), or an export (.vtu, .htg, .vdb, a .vtp mesh: its scene, cells,\n"
-    "leaves per depth, arrays or grids).  Files are recognised by content.  A\n"
-    "truncated or corrupt file is reported (exit 2).\n";
+    "depth), or an export (.vtu, .htg, .vdb, a .vtp mesh, the indexes .pvtu and\n"
+    ".phtg of pieces: its scene, cells, leaves per depth, arrays or grids).  Files\n"
+    "are recognised by content.  A truncated or corrupt file is reported (exit 2).\n";
 
 static int info_ivo(const char *path)
 {

@@ -10,15 +10,15 @@
  * most weight left, so ranks that finish early take over the rest of a skewed
  * scene.  Each chunk is built by oct_plan_build on the rank's threads.
  *
- * The outputs that are one file (--save, --cells F.csv, --vtu F.vtu, --htg,
- * --vdb, --mesh) are written by rank 0 from the subtrees gathered there (the
- * file of the single-process build, byte for byte); the partitioned ones
- * (--vtu F.pvtu, --cells F.pcsv) by every rank from its own subtrees, F_<rank>
- * beside the index rank 0 writes.  --stats holds the reduced counts and the
- * per-rank figures.  Errors: every failure point is agreed on by all ranks
- * (cli_mpi_agree): the lowest failing rank's message is printed once, by rank
- * 0, and every rank exits with its status; outputs are renamed into place
- * only once every rank has written all of its own.
+ * The outputs that are one file (--save F.ivo, --cells F.csv, --vtu F.vtu,
+ * --htg F.htg, --vdb, --mesh) are written by rank 0 from the subtrees gathered
+ * there (the file of the single-process build, byte for byte); the partitioned
+ * ones (--vtu F.pvtu, --cells F.pcsv, --htg F.phtg, --save F.pivo) by every
+ * rank from its own subtrees, F_<rank> beside the index rank 0 writes.  --stats holds the
+ * reduced counts and the per-rank figures.  Errors: every failure point is
+ * agreed on by all ranks (cli_mpi_agree): the lowest failing rank's message
+ * is printed once, by rank 0, and every rank exits with its status; outputs
+ * are renamed into place only once every rank has written all of its own.
  *
  * The render over MPI (cmd_render.c) uses the end of this file: with fewer
  * frames than ranks each frame is cut into parts, one per rank (ray.h, "parts
@@ -510,18 +510,30 @@ static void reduce_stats(const oct_stats_t *mine, oct_stats_t *sum)
     sum->certain_time_s = te[1];
 }
 
-/* This rank's pieces (--cells F.pcsv, --vtu F.pvtu) into g; rank 0 also the
- * indexes, which name every rank's piece. */
+/* The frontier, for the .htg pieces: their trees are its cells (exp_htg_piece). */
+typedef struct frontier {
+    int depth;
+    size_t n;
+    uint64_t *code; /* Morton codes at depth, increasing */
+} frontier_t;
+
+/* This rank's pieces (--cells F.pcsv, --vtu F.pvtu, --htg F.phtg, --save
+ * F.pivo) into g; rank 0 also the indexes, which name every rank's piece,
+ * but the .pivo's, which needs every piece's checksum: *save_sum is this
+ * rank's (write_save_index). */
 static int write_pieces(const build_job_t *job, const oct_tree_t *part, const uint64_t *leaves,
-                        io_group_t *g, ivoct_error_t *err)
+                        const frontier_t *front, uint64_t *save_sum, io_group_t *g,
+                        ivoct_error_t *err)
 {
     const char *cells = is_index(job->cells, ".pcsv") ? job->cells : NULL;
     const char *vtu = is_index(job->ex.vtu, ".pvtu") ? job->ex.vtu : NULL;
+    const char *htg = is_index(job->ex.htg, ".phtg") ? job->ex.htg : NULL;
+    const char *save = is_index(job->save, ".pivo") ? job->save : NULL;
     /* the budget holds per rank: its part and what its pieces need beside it,
        as for one process's outputs */
-    const exports_t piece_ex = {.vtu = vtu};
+    const exports_t piece_ex = {.vtu = vtu, .htg = htg};
     if (job->max_memory &&
-        build_check_export_memory(part, cells, NULL, &piece_ex, job->max_memory, err))
+        build_check_export_memory(part, cells, save, &piece_ex, job->max_memory, err))
         return -1;
     const int cells_threads =
         job->max_memory ? build_cells_threads(part, job->threads, job->max_memory) : job->threads;
@@ -531,35 +543,70 @@ static int write_pieces(const build_job_t *job, const oct_tree_t *part, const ui
         ivoct_error_set(err, "out of memory");
         return -1;
     }
-    for (int pass = 0; pass < 2 && !rc; pass++) {
-        const char *index = pass == 0 ? cells : vtu, *ext = pass == 0 ? ".csv" : ".vtu";
+    const char *const index_of[] = {cells, vtu, htg, save};
+    const char *const ext_of[] = {".csv", ".vtu", ".htg", ".ivo"};
+    const char *const step_of[] = {"cells", "vtu", "htg", "save"}; /* cli_test_pause */
+    const scene_t *s = job->scene;
+    for (int pass = 0; pass < 4 && !rc; pass++) {
+        const char *index = index_of[pass], *ext = ext_of[pass];
         if (!index)
             continue;
         char *mine = piece_name(index, M.rank, ext, 1);
         const char *tmp = NULL;
-        cli_test_pause(pass == 0 ? "cells" : "vtu");
+        cli_test_pause(step_of[pass]);
         rc = !mine || io_group_reserve(g, mine, &tmp, err);
+        /* the .htg piece: the trees of the frontier cells this part holds, and
+           on rank 0 (the part with the top's leaves) the top's cells there */
         if (!rc)
-            rc = pass == 0 ? exp_cells(part, tmp, cells_threads, err)
-                           : exp_vtu(part, &job->scene->source, tmp, err);
+            rc = pass == 0   ? exp_cells(part, tmp, cells_threads, err)
+                 : pass == 1 ? exp_vtu(part, &s->source, tmp, err)
+                 : pass == 2 ? exp_htg_piece(part, s->tape, &s->source, front->depth, front->code,
+                                             front->n, M.rank == 0, tmp, err)
+                             : oct_save(part, &s->source, tmp, err) ||
+                                   oct_file_checksum(tmp, save_sum, err);
         free(mine);
-        if (!rc && M.rank == 0) {
+        if (!rc && M.rank == 0 && pass < 3) {
             for (int r = 0; r < M.size && !rc; r++)
                 rc = !(sources[r] = piece_name(index, r, ext, 0));
             const char *itmp;
             if (!rc)
                 rc = io_group_reserve(g, index, &itmp, err);
             if (!rc)
-                rc = pass == 0 ? exp_cells_index(itmp, (const char *const *)sources, leaves,
-                                                 M.size, err)
-                               : exp_pvtu_index(itmp, tmp, (const char *const *)sources, M.size,
-                                                err);
+                rc = pass == 0   ? exp_cells_index(itmp, (const char *const *)sources, leaves,
+                                                   M.size, err)
+                     : pass == 1 ? exp_pvtu_index(itmp, tmp, (const char *const *)sources,
+                                                  M.size, err)
+                                 : exp_phtg_index(itmp, tmp, (const char *const *)sources,
+                                                  M.size, err);
             for (int r = 0; r < M.size; r++)
                 free(sources[r]), sources[r] = NULL;
         }
         if (rc && !err->msg[0])
             ivoct_error_set(err, "out of memory");
     }
+    free(sources);
+    if (rc)
+        io_group_rename_error(g, err);
+    return rc ? -1 : 0;
+}
+
+/* Rank 0: the index of the .ivo pieces (--save F.pivo), from every rank's
+ * leaves and checksum, into g. */
+static int write_save_index(const char *index, const uint64_t *leaves, const uint64_t *sums,
+                            io_group_t *g, ivoct_error_t *err)
+{
+    char **sources = calloc((size_t)M.size, sizeof *sources);
+    int rc = !sources;
+    for (int r = 0; r < M.size && !rc; r++)
+        rc = !(sources[r] = piece_name(index, r, ".ivo", 0));
+    if (rc)
+        ivoct_error_set(err, "out of memory");
+    const char *itmp;
+    if (!rc)
+        rc = io_group_reserve(g, index, &itmp, err) ||
+             oct_save_index(itmp, (const char *const *)sources, leaves, sums, M.size, err);
+    for (int r = 0; sources && r < M.size; r++)
+        free(sources[r]);
     free(sources);
     if (rc)
         io_group_rename_error(g, err);
@@ -574,12 +621,7 @@ int cli_mpi_build(const build_job_t *job, bool quiet)
     ivoct_error_clear(&err);
     /* the ranks that failed before this (the options, the scene) meet the
        others here */
-    /* a HyperTreeGrid is one tree here: its pieces are not written yet */
-    int agreed = cli_mpi_agree(
-        is_index(job->ex.htg, ".phtg")
-            ? cli_usage_error("build", "--htg %s: .phtg pieces are not written yet; give F.htg "
-                                       "(one file, gathered on rank 0)", job->ex.htg)
-            : EXIT_OK);
+    int agreed = cli_mpi_agree(EXIT_OK);
     if (agreed)
         return agreed;
     const scene_t *s = job->scene;
@@ -592,6 +634,7 @@ int cli_mpi_build(const build_job_t *job, bool quiet)
     oct_plan_t *plan = NULL, *mine = NULL;
     oct_tree_t *tree = NULL, *part = NULL;
     uint64_t *weight = NULL;
+    frontier_t front = {0, 0, NULL};
     share_t share = {PTHREAD_MUTEX_INITIALIZER, NULL, NULL, NULL, 0, NULL, 0};
     int rc = oct_plan_new(s->tape, s->box, &p, &plan, &err) ? EXIT_RUNTIME : EXIT_OK;
     if ((rc = cli_mpi_agree(rc ? (fprintf(stderr, "ivoct build: %s\n", err.msg), rc) : rc)))
@@ -599,8 +642,12 @@ int cli_mpi_build(const build_job_t *job, bool quiet)
     size_t n = oct_plan_subtrees(plan);
     int threads = p.threads > 0 ? p.threads : omp_get_num_procs();
     weight = malloc((n + 1) * sizeof *weight);
-    if (!weight)
+    if (is_index(job->ex.htg, ".phtg")) /* the same on every rank: the top is */
+        front = (frontier_t){oct_plan_subtree_depth(plan), n, malloc((n + 1) * sizeof *front.code)};
+    if (!weight || (is_index(job->ex.htg, ".phtg") && !front.code))
         MPI_Abort(MPI_COMM_WORLD, EXIT_RUNTIME); /* the others are in a collective */
+    for (size_t i = 0; front.code && i < n; i++)
+        front.code[i] = oct_plan_subtree_code(plan, i);
     int coarse_depth = 0;
     if (coarse_weights(job, plan, weight, &coarse_depth, &err)) {
         rc = EXIT_RUNTIME;
@@ -678,12 +725,18 @@ int cli_mpi_build(const build_job_t *job, bool quiet)
     }
 
     /* gather: the outputs that are one file, written on rank 0 */
-    int pieces = is_index(job->cells, ".pcsv") || is_index(job->ex.vtu, ".pvtu");
+    const int save_pieces = is_index(job->save, ".pivo");
+    int pieces = is_index(job->cells, ".pcsv") || is_index(job->ex.vtu, ".pvtu") ||
+                 is_index(job->ex.htg, ".phtg") || save_pieces;
     build_job_t single = *job;
     if (is_index(job->cells, ".pcsv"))
         single.cells = NULL;
     if (is_index(job->ex.vtu, ".pvtu"))
         single.ex.vtu = NULL;
+    if (is_index(job->ex.htg, ".phtg"))
+        single.ex.htg = NULL;
+    if (save_pieces)
+        single.save = NULL;
     single.stats = NULL;
     int gather = single.cells || single.save || single.ex.vtu || single.ex.htg || single.ex.vdb ||
                  single.ex.mesh;
@@ -794,8 +847,19 @@ int cli_mpi_build(const build_job_t *job, bool quiet)
        once every rank has all of its own */
     io_group_t g = IO_GROUP_INIT;
     rc = EXIT_OK;
-    if (pieces && write_pieces(job, part, piece_leaves, &g, &err))
+    uint64_t save_sum = 0;
+    if (pieces && write_pieces(job, part, piece_leaves, &front, &save_sum, &g, &err))
         rc = EXIT_RUNTIME;
+    if (save_pieces) {
+        /* every rank, written or not: the index names each piece's checksum */
+        uint64_t *sums = calloc((size_t)N, sizeof *sums);
+        if (!sums)
+            MPI_Abort(MPI_COMM_WORLD, EXIT_RUNTIME);
+        MPI_Gather(&save_sum, 1, MPI_UINT64_T, sums, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+        if (!rc && M.rank == 0 && write_save_index(job->save, piece_leaves, sums, &g, &err))
+            rc = EXIT_RUNTIME;
+        free(sums);
+    }
     if (!rc && M.rank == 0) {
         build_stats_extra_t extra = {write_mpi_stats, &fig};
         build_job_t rest = single;
@@ -837,6 +901,7 @@ int cli_mpi_build(const build_job_t *job, bool quiet)
 out:
     free(share.next), free(share.end), free(share.shared);
     free(weight);
+    free(front.code);
     oct_free(tree);
     oct_free(part);
     oct_plan_free(plan);
@@ -924,7 +989,8 @@ void cli_mpi_render_reduce(cli_mpi_render_t *r, ray_stats_t *total)
     MPI_Reduce(&sent, &r->gather_bytes, 1, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
     uint64_t *counts[] = {&total->rays, &total->hits, &total->tangent_hits, &total->tape_evals,
                           &total->segments, &total->leaves, &total->shadow_rays,
-                          &total->shadowed, &total->shadow_undecided, &total->shadow_evals};
+                          &total->shadowed, &total->shadow_undecided, &total->shadow_evals,
+                          &total->beams, &total->rays_decided_by_beam};
     for (size_t i = 0; i < sizeof counts / sizeof *counts; i++)
         *counts[i] = cli_mpi_sum_u64(*counts[i]);
     total->threads = (int)cli_mpi_sum_u64((uint64_t)total->threads);

@@ -467,6 +467,13 @@ int exp_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
     return guard(err, [&] { vtk_write_htg(tree, tape, src, path); });
 }
 
+int exp_htg_piece(const oct_tree_t *part, const tape_t *tape, const oct_source_t *src, int depth,
+                  const uint64_t *frontier, size_t n, int top, const char *path,
+                  ivoct_error_t *err)
+{
+    return guard(err, [&] { vtk_write_htg_piece(part, tape, src, depth, frontier, n, top, path); });
+}
+
 int exp_vdb(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
             const char *path, ivoct_error_t *err)
 {

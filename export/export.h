@@ -95,6 +95,53 @@ int exp_cells_index(const char *path, const char *const *sources, const uint64_t
 int exp_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
             const char *path, ivoct_error_t *err);
 
+/* A piece of a partitioned .htg (ivoct build over MPI, `--htg F.phtg`): the
+ * HyperTreeGrid of one process's part of the tree (oct_plan_finish with
+ * OCT_PLAN_PART) over a grid of 2^g x 2^g x 2^g trees, the cells of the box
+ * at depth g, each tree the subtree of `part` below its cell, every node a
+ * cell with the cell data (values and meaning) and field data of exp_htg.
+ * VTK 9.1's parallel reader cannot put one tree together from several pieces
+ * (it rebuilds each piece's trees whole, masks dropped: a tree met twice is
+ * renumbered over the first piece's cells), so each tree is in exactly one
+ * piece:
+ *   g = depth, the frontier's (oct_plan_subtree_depth) when n > 0, with
+ *       frontier[0..n) the Morton codes at that depth of every frontier cell
+ *       (increasing: oct_plan_subtree_code), held or not; when n == 0 (no
+ *       frontier: the top is the whole tree) the grid of exp_htg (2x2x2 when
+ *       the root is split, else one tree) and depth is ignored;
+ *   the piece has a tree at each node of part at depth g that is a frontier
+ *       cell held by the part (split there; a frontier cell not held is an
+ *       empty cell) or, when `top` (the part with the top's leaves: rank 0's),
+ *       a node that is not a frontier cell (a leaf of the top at depth g);
+ *       the grid cells covered by leaves above depth g, and the nodes above
+ *       it, are in no piece (their cells of the grid have no tree).
+ * So the pieces of all the parts (the same frontier, `top` on one of them)
+ * hold every node of the tree at depth g or below once, with exp_htg's
+ * values.  A surface leaf of part above depth g is an error (no cell of the
+ * grid is its box): the top of a build only has one when --refine stops
+ * there.  Written in binary mode, in VTK's HyperTreeGrid file format 0.0
+ * (exp_htg writes 2.0): the only one whose writer puts NumberOfVertices (the
+ * piece's nodes) on the HyperTreeGrid element, which VTK 9.1's parallel
+ * reader needs to size its arrays, and whose reader numbers a tree's nodes
+ * depth first, as the parallel reader rebuilds them before copying a piece's
+ * arrays as read (from 1.0 and 2.0 files the values land on other cells).
+ * Every piece has the whole grid's coordinates (the reader takes the grid
+ * from the first piece), a piece without a tree included. */
+int exp_htg_piece(const oct_tree_t *part, const tape_t *tape, const oct_source_t *src, int depth,
+                  const uint64_t *frontier, size_t n, int top, const char *path,
+                  ivoct_error_t *err);
+/* The index of a partitioned .htg: a .phtg (VTKFile type PHyperTreeGrid, as
+ * vtkXMLPHyperTreeGridWriter writes it) naming the pieces sources[0..n)
+ * (paths relative to the index's folder), read by VTK's
+ * vtkXMLPHyperTreeGridReader (ParaView's reader of .phtg files).  `piece` is
+ * any one of them, already written: its byte order and header type are
+ * copied, and it must be an exp_htg_piece file (a HyperTreeGrid with
+ * NumberOfVertices: else an error).  The reader's source keeps the pieces'
+ * node offsets in an int: the pieces together should have fewer than 2^31
+ * nodes. */
+int exp_phtg_index(const char *path, const char *piece, const char *const *sources, int n,
+                   ivoct_error_t *err);
+
 /* .vdb: two FloatGrids on the voxels of the max depth D (voxel (i, j, k) is the
  * depth-D cell (i, j, k); the transform maps index space onto the scene box,
  * voxel centres at integer coordinates):
@@ -124,8 +171,9 @@ int exp_mesh(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src
 /* Is path's extension one exp_mesh writes? */
 int exp_mesh_supported(const char *path);
 
-/* Summarise a .vtu, .htg or .vdb file (recognised by content, not by name) on
- * out.  Returns 0 when done, 1 when the file is none of these (nothing
+/* Summarise a .vtu, .htg, .vtp or .vdb file, or a .pvtu or .phtg index with
+ * its pieces read through VTK's parallel readers (recognised by content, not
+ * by name) on out.  Returns 0 when done, 1 when the file is none of these (nothing
  * printed, err untouched: the caller may try other formats), -1 with err set
  * when it is one of them but cannot be read. */
 int exp_info(const char *path, FILE *out, ivoct_error_t *err);

@@ -88,6 +88,8 @@ void vdb_info(const char *path, FILE *out);
 void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *path);
 void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
                    const char *path);
+void vtk_write_htg_piece(const oct_tree_t *part, const tape_t *tape, const oct_source_t *src,
+                         int depth, const uint64_t *frontier, size_t n, int top, const char *path);
 void vtk_write_vtp(const Mesh &mesh, const oct_source_t *src, const char *path);
 void vtk_info(const char *path, FILE *out);
 

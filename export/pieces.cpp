@@ -1,8 +1,9 @@
 // ivoct export/ — the indexes of partitioned outputs (the build over MPI): a
-// .pvtu over .vtu pieces, and the cell list's .pcsv over CSV pieces.  No VTK
-// here: a .pvtu is a short XML file naming the pieces and declaring their
-// arrays, and those declarations are copied from a piece's own header, so the
-// index cannot drift from what exp_vtu writes.
+// .pvtu over .vtu pieces, a .phtg over .htg pieces, and the cell list's .pcsv
+// over CSV pieces.  No VTK here: a .pvtu is a short XML file naming the pieces
+// and declaring their arrays, and those declarations are copied from a piece's
+// own header, so the index cannot drift from what exp_vtu writes; a .phtg
+// names the pieces only (VTK 9.1's reader reads nothing else from it).
 #include <cstring>
 #include <string>
 
@@ -22,8 +23,9 @@ std::string attribute(const std::string &tag, const char *name)
     return end == std::string::npos ? "" : tag.substr(at, end - at);
 }
 
-// The header of a VTK XML file: everything before its appended data.
-std::string xml_header(const char *path)
+// The beginning of a VTK XML file, up to where cut(text read so far) says
+// (npos: read on; the whole file when it never says).
+template <class Cut> std::string xml_head(const char *path, Cut cut)
 {
     FILE *f = std::fopen(path, "rb");
     if (!f)
@@ -33,14 +35,33 @@ std::string xml_header(const char *path)
     size_t n;
     while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) {
         head.append(buf, n);
-        size_t cut = head.find("<AppendedData");
-        if (cut != std::string::npos) {
-            head.resize(cut);
+        size_t at = cut(head);
+        if (at != std::string::npos) {
+            head.resize(at);
             break;
         }
     }
     std::fclose(f);
     return head;
+}
+
+// The header of a VTK XML file: everything before its appended data.
+std::string xml_header(const char *path)
+{
+    return xml_head(path, [](const std::string &h) { return h.find("<AppendedData"); });
+}
+
+// The start tag of element `name` ("<name ...", without its '>'), read from
+// the beginning of path only; "" when the file has none.
+std::string xml_start_tag(const char *path, const char *name)
+{
+    const std::string open = std::string("<") + name + " ";
+    std::string head = xml_head(path, [&](const std::string &h) {
+        size_t at = h.find(open);
+        return at == std::string::npos ? at : h.find('>', at);
+    });
+    size_t at = head.find(open);
+    return at == std::string::npos ? "" : head.substr(at);
 }
 
 // The <PDataArray> lines of the DataArrays inside section `section` of head.
@@ -104,6 +125,30 @@ int exp_pvtu_index(const char *path, const char *piece, const char *const *sourc
         for (int i = 0; i < n; i++)
             x += "    <Piece Source=\"" + std::string(sources[i]) + "\"/>\n";
         x += "  </PUnstructuredGrid>\n</VTKFile>\n";
+        write_all(path, x);
+    });
+}
+
+int exp_phtg_index(const char *path, const char *piece, const char *const *sources, int n,
+                   ivoct_error_t *err)
+{
+    return ivexp::guard(err, [&] {
+        std::string vtkfile = xml_start_tag(piece, "VTKFile");
+        std::string grid = xml_start_tag(piece, "HyperTreeGrid");
+        if (attribute(vtkfile, "type") != "HyperTreeGrid" || grid.empty())
+            throw ivexp::Error(std::string(piece) + " is not a .htg piece");
+        // VTK 9.1's vtkXMLPHyperTreeGridReader sizes its arrays by it (exp_htg_piece)
+        if (attribute(grid, "NumberOfVertices").empty())
+            throw ivexp::Error(std::string(piece) + " has no NumberOfVertices: not a .phtg piece");
+        // what vtkXMLPHyperTreeGridWriter writes: the reader takes nothing else
+        // from the index (no array declarations), the grid from the first piece
+        std::string x = "<?xml version=\"1.0\"?>\n<VTKFile type=\"PHyperTreeGrid\" "
+                        "version=\"0.1\" byte_order=\"" +
+                        attribute(vtkfile, "byte_order") + "\" header_type=\"" +
+                        attribute(vtkfile, "header_type") + "\">\n  <PHyperTreeGrid>\n";
+        for (int i = 0; i < n; i++)
+            x += "    <Piece Source=\"" + std::string(sources[i]) + "\"/>\n";
+        x += "  </PHyperTreeGrid>\n</VTKFile>\n";
         write_all(path, x);
     });
 }

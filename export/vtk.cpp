@@ -38,6 +38,8 @@
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLHyperTreeGridReader.h>
 #include <vtkXMLHyperTreeGridWriter.h>
+#include <vtkXMLPHyperTreeGridReader.h>
+#include <vtkXMLPUnstructuredGridReader.h>
 #include <vtkXMLPolyDataReader.h>
 #include <vtkXMLPolyDataWriter.h>
 #include <vtkXMLUnstructuredGridReader.h>
@@ -468,25 +470,24 @@ struct HtgBuilder {
     }
 };
 
-}  // namespace
-
-void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
-                   const char *path)
+// The HyperTreeGrid of the subtrees of `tree` below `roots`, cells of depth g:
+// a grid of 2^g x 2^g x 2^g trees (their bounds oct_coord at depth g), a tree at
+// each root's cell, numbered in the order of `roots`; every node a cell, with
+// the cell data and field data of exp_htg.  `piece`: a piece of a .phtg, in
+// the file format VTK's parallel reader reads right (0.0).
+void write_htg_trees(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src, int g,
+                     const std::vector<HtgNode> &roots, bool piece, const char *path)
 {
     vtkNew<vtkHyperTreeGrid> htg;
     htg->SetBranchFactor(2);
-    const oct_node_t root = tree->nodes[0];
-    // the root's 8 children as a 2x2x2 grid of trees (HyperTreeGrid filters such as
-    // Contour work on a grid of trees); a root that is not split is one tree
-    const bool split = OCT_NODE_KIND(root) == OCT_INTERIOR;
-    const int cells = split ? 2 : 1;
-    htg->SetDimensions(cells + 1, cells + 1, cells + 1);
+    const uint64_t cells = (uint64_t)1 << g;
+    htg->SetDimensions((unsigned)cells + 1, (unsigned)cells + 1, (unsigned)cells + 1);
     for (int axis = 0; axis < 3; axis++) {
         vtkNew<vtkDoubleArray> c;
-        c->SetNumberOfValues(cells + 1);
-        for (int i = 0; i <= cells; i++)
-            c->SetValue(i, oct_coord(tree->box[2 * axis], tree->box[2 * axis + 1], (uint64_t)i,
-                                     split ? 1 : 0));
+        c->SetNumberOfValues((vtkIdType)cells + 1);
+        for (uint64_t i = 0; i <= cells; i++)
+            c->SetValue((vtkIdType)i,
+                        oct_coord(tree->box[2 * axis], tree->box[2 * axis + 1], i, g));
         if (axis == 0)
             htg->SetXCoordinates(c);
         else if (axis == 1)
@@ -502,16 +503,12 @@ void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_
     HtgBuilder b{tree, nodes, surface};
     vtkNew<vtkHyperTreeGridNonOrientedCursor> cur;
     vtkIdType start = 0;
-    for (int c = 0; c < (split ? 8 : 1); c++) {
+    for (const HtgNode &root : roots) {
         vtkIdType treeId;
-        htg->GetIndexFromLevelZeroCoordinates(treeId, (unsigned)(c & 1), (unsigned)(c >> 1 & 1),
-                                              (unsigned)(c >> 2 & 1));
+        htg->GetIndexFromLevelZeroCoordinates(treeId, root.ix, root.iy, root.iz);
         htg->InitializeNonOrientedCursor(cur, treeId, true);
         cur->SetGlobalIndexStart(start);
-        HtgNode n = split ? HtgNode{OCT_NODE_VALUE(root) + (uint32_t)c, 1, (uint32_t)(c & 1),
-                                    (uint32_t)(c >> 1 & 1), (uint32_t)(c >> 2 & 1)}
-                          : HtgNode{0, 0, 0, 0, 0};
-        b.visit(cur, n);
+        b.visit(cur, root);
         start += cur->GetTree()->GetNumberOfVertices();
     }
     const size_t total = (size_t)start;
@@ -608,7 +605,93 @@ void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_
 
     vtkNew<vtkXMLHyperTreeGridWriter> w;
     w->SetDataModeToBinary();  // appended mode in VTK 9.1 writes files it cannot read
+    if (piece) {
+        // format 0.0: VTK 9.1's parallel reader sizes its arrays by the pieces'
+        // NumberOfVertices (which only 0.0 writes) and rebuilds each tree depth
+        // first, copying the piece's arrays as they are: the numbering of a 0.0
+        // file read back; the 1.0 and 2.0 readers number the nodes breadth first
+        w->SetDataSetMajorVersion(0);
+        w->SetDataSetMinorVersion(0);
+    }
     write_xml(w.Get(), htg, path);
+}
+
+}  // namespace
+
+void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
+                   const char *path)
+{
+    // the root's 8 children as a 2x2x2 grid of trees (HyperTreeGrid filters such as
+    // Contour work on a grid of trees); a root that is not split is one tree
+    const oct_node_t root = tree->nodes[0];
+    std::vector<HtgNode> roots;
+    if (OCT_NODE_KIND(root) == OCT_INTERIOR) {
+        for (uint32_t c = 0; c < 8; c++)
+            roots.push_back({OCT_NODE_VALUE(root) + c, 1, c & 1, c >> 1 & 1, c >> 2 & 1});
+        write_htg_trees(tree, tape, src, 1, roots, false, path);
+    } else {
+        roots.push_back({0, 0, 0, 0, 0});
+        write_htg_trees(tree, tape, src, 0, roots, false, path);
+    }
+}
+
+namespace {
+
+// The nodes of `tree` at depth g below node n (depth d, cell ix iy iz), in Morton
+// order; a surface leaf above g is an error (no tree of the grid can hold it).
+void nodes_at_depth(const oct_tree_t *tree, const HtgNode &n, int g, std::vector<HtgNode> &out,
+                    const char *path)
+{
+    const oct_node_t w = tree->nodes[n.node];
+    if (n.depth == g) {
+        out.push_back(n);
+    } else if (OCT_NODE_KIND(w) == OCT_INTERIOR) {
+        for (uint32_t c = 0; c < 8; c++)
+            nodes_at_depth(tree,
+                           {OCT_NODE_VALUE(w) + c, (uint8_t)(n.depth + 1), 2 * n.ix + (c & 1),
+                            2 * n.iy + (c >> 1 & 1), 2 * n.iz + (c >> 2 & 1)},
+                           g, out, path);
+    } else if (OCT_NODE_KIND(w) == OCT_LEAF) {
+        throw Error(std::string("cannot write ") + path + ": a surface leaf of depth " +
+                    std::to_string(n.depth) + " lies above depth " + std::to_string(g) +
+                    ", where the pieces' trees start (the frontier): a .phtg cannot hold "
+                    "it, a .htg can");
+    }
+}
+
+}  // namespace
+
+void vtk_write_htg_piece(const oct_tree_t *part, const tape_t *tape, const oct_source_t *src,
+                         int depth, const uint64_t *frontier, size_t n, int top, const char *path)
+{
+    // without a frontier the top is the whole tree: exp_htg's grid
+    const oct_node_t root = part->nodes[0];
+    const int g = n ? depth : OCT_NODE_KIND(root) == OCT_INTERIOR ? 1 : 0;
+    if (g < 0 || g > part->depth)
+        throw Error(std::string("cannot write ") + path + ": the frontier's depth " +
+                    std::to_string(depth) + " is not within the tree's");
+    for (size_t i = 1; i < n; i++)
+        if (frontier[i] <= frontier[i - 1])
+            throw Error(std::string("cannot write ") + path +
+                        ": the frontier's codes are not increasing");
+    std::vector<HtgNode> cells, roots;
+    nodes_at_depth(part, {0, 0, 0, 0, 0}, g, cells, path);
+    for (const HtgNode &c : cells) {
+        const uint64_t code = oct_morton(c.ix, c.iy, c.iz, g);
+        const bool in_frontier = std::binary_search(frontier, frontier + n, code);
+        const oct_node_t w = part->nodes[c.node];
+        // a frontier cell is split where its subtree is held, an empty cell where it
+        // is not (oct_plan_finish); the top's cells at the frontier's depth are not
+        // split (without a frontier, g = 1 holds the top's cells, split or not)
+        if (in_frontier ? OCT_NODE_KIND(w) == OCT_LEAF : n && OCT_NODE_KIND(w) == OCT_INTERIOR)
+            throw Error(std::string("cannot write ") + path + ": the cell " +
+                        std::to_string(code) + " of depth " + std::to_string(g) +
+                        (in_frontier ? " is a frontier cell but a leaf"
+                                     : " is split but not a frontier cell"));
+        if (in_frontier ? OCT_NODE_KIND(w) == OCT_INTERIOR : top != 0)
+            roots.push_back(c);
+    }
+    write_htg_trees(part, tape, src, g, roots, true, path);
 }
 
 // ---- .vtp -----------------------------------------------------------------------------
@@ -744,61 +827,83 @@ double max_of(vtkDataArray *a)
 
 }  // namespace
 
+// The summaries of `ivoct info`: a .vtu (or the pieces of a .pvtu put together).
+void ug_info(FILE *out, const char *path, const char *what, vtkUnstructuredGrid *ug)
+{
+    vtkCellData *cd = ug->GetCellData();
+    std::fprintf(out, "file:     %s (%s)\n", path, what);
+    print_field_data(out, ug->GetFieldData());
+    std::fprintf(out, "leaves:   %lld\n", (long long)ug->GetNumberOfCells());
+    std::fprintf(out, "points:   %lld\n", (long long)ug->GetNumberOfPoints());
+    print_by_depth(out, "leaves by depth", cd->GetArray("depth"), [](vtkIdType) { return true; });
+    vtkDataArray *e = cd->GetArray("error_bound");
+    if (e && e->GetNumberOfTuples() > 0)
+        std::fprintf(out, "max error bound: %.17g\n", max_of(e));
+    print_arrays(out, cd);
+}
+
+// A .htg (or the pieces of a .phtg put together).
+void htg_info(FILE *out, const char *path, const char *what, vtkHyperTreeGrid *h)
+{
+    vtkCellData *cd = h->GetCellData();
+    std::fprintf(out, "file:     %s (%s)\n", path, what);
+    print_field_data(out, h->GetFieldData());
+    // VTK 9.1's reader drops the field data: box and depth from the grid itself
+    if (!h->GetFieldData() || !h->GetFieldData()->GetArray("box")) {
+        vtkDataArray *c[3] = {h->GetXCoordinates(), h->GetYCoordinates(), h->GetZCoordinates()};
+        if (c[0] && c[1] && c[2] && c[0]->GetNumberOfTuples() > 0 &&
+            c[1]->GetNumberOfTuples() > 0 && c[2]->GetNumberOfTuples() > 0) {
+            std::fprintf(out, "box:     ");
+            for (int a = 0; a < 3; a++)
+                std::fprintf(out, "%s[%.17g, %.17g]", a ? " x " : " ", c[a]->GetTuple1(0),
+                             c[a]->GetTuple1(c[a]->GetNumberOfTuples() - 1));
+            std::fprintf(out, "\n");
+        }
+        if (vtkDataArray *d = cd->GetArray("depth"))
+            if (d->GetNumberOfTuples() > 0)
+                std::fprintf(out, "depth:    %.0f\n", max_of(d));
+    }
+    unsigned dims[3];
+    h->GetCellDims(dims);
+    std::fprintf(out, "trees:    %u x %u x %u\n", dims[0], dims[1], dims[2]);
+    std::fprintf(out, "nodes:    %lld\n", (long long)h->GetNumberOfVertices());
+    std::fprintf(out, "leaves (all): %lld\n", (long long)h->GetNumberOfLeaves());
+    vtkDataArray *cls = cd->GetArray("class");
+    if (cls) {
+        unsigned long long n = 0;
+        for (vtkIdType i = 0; i < cls->GetNumberOfTuples(); i++)
+            n += cls->GetTuple1(i) == CLASS_SURFACE;
+        std::fprintf(out, "leaves:   %llu\n", n);
+        print_by_depth(out, "leaves by depth", cd->GetArray("depth"),
+                       [&](vtkIdType i) { return cls->GetTuple1(i) == CLASS_SURFACE; });
+    }
+    print_by_depth(out, "nodes by depth", cd->GetArray("depth"), [](vtkIdType) { return true; });
+    print_arrays(out, cd);
+}
+
 void vtk_info(const char *path, FILE *out)
 {
     std::string type = xml_type(path);
     if (type == "UnstructuredGrid") {
         vtkNew<vtkXMLUnstructuredGridReader> r;
         read_xml(r.Get(), path);
-        vtkUnstructuredGrid *ug = r->GetOutput();
-        vtkCellData *cd = ug->GetCellData();
-        std::fprintf(out, "file:     %s (VTK UnstructuredGrid: surface leaves as voxels)\n", path);
-        print_field_data(out, ug->GetFieldData());
-        std::fprintf(out, "leaves:   %lld\n", (long long)ug->GetNumberOfCells());
-        std::fprintf(out, "points:   %lld\n", (long long)ug->GetNumberOfPoints());
-        print_by_depth(out, "leaves by depth", cd->GetArray("depth"), [](vtkIdType) { return true; });
-        vtkDataArray *e = cd->GetArray("error_bound");
-        if (e && e->GetNumberOfTuples() > 0)
-            std::fprintf(out, "max error bound: %.17g\n", max_of(e));
-        print_arrays(out, cd);
+        ug_info(out, path, "VTK UnstructuredGrid: surface leaves as voxels", r->GetOutput());
+    } else if (type == "PUnstructuredGrid") {
+        vtkNew<vtkXMLPUnstructuredGridReader> r;
+        read_xml(r.Get(), path);
+        std::string what = "VTK PUnstructuredGrid: the surface leaves of " +
+                           std::to_string(r->GetNumberOfPieces()) + " pieces";
+        ug_info(out, path, what.c_str(), r->GetOutput());
     } else if (type == "HyperTreeGrid") {
         vtkNew<vtkXMLHyperTreeGridReader> r;
         read_xml(r.Get(), path);
-        vtkHyperTreeGrid *h = r->GetOutput();
-        vtkCellData *cd = h->GetCellData();
-        std::fprintf(out, "file:     %s (VTK HyperTreeGrid: the whole octree)\n", path);
-        print_field_data(out, h->GetFieldData());
-        // VTK 9.1's reader drops the field data: box and depth from the grid itself
-        if (!h->GetFieldData() || !h->GetFieldData()->GetArray("box")) {
-            vtkDataArray *c[3] = {h->GetXCoordinates(), h->GetYCoordinates(), h->GetZCoordinates()};
-            if (c[0] && c[1] && c[2] && c[0]->GetNumberOfTuples() > 0 &&
-                c[1]->GetNumberOfTuples() > 0 && c[2]->GetNumberOfTuples() > 0) {
-                std::fprintf(out, "box:     ");
-                for (int a = 0; a < 3; a++)
-                    std::fprintf(out, "%s[%.17g, %.17g]", a ? " x " : " ", c[a]->GetTuple1(0),
-                                 c[a]->GetTuple1(c[a]->GetNumberOfTuples() - 1));
-                std::fprintf(out, "\n");
-            }
-            if (vtkDataArray *d = cd->GetArray("depth"))
-                if (d->GetNumberOfTuples() > 0)
-                    std::fprintf(out, "depth:    %.0f\n", max_of(d));
-        }
-        unsigned dims[3];
-        h->GetCellDims(dims);
-        std::fprintf(out, "trees:    %u x %u x %u\n", dims[0], dims[1], dims[2]);
-        std::fprintf(out, "nodes:    %lld\n", (long long)h->GetNumberOfVertices());
-        std::fprintf(out, "leaves (all): %lld\n", (long long)h->GetNumberOfLeaves());
-        vtkDataArray *cls = cd->GetArray("class");
-        if (cls) {
-            unsigned long long n = 0;
-            for (vtkIdType i = 0; i < cls->GetNumberOfTuples(); i++)
-                n += cls->GetTuple1(i) == CLASS_SURFACE;
-            std::fprintf(out, "leaves:   %llu\n", n);
-            print_by_depth(out, "leaves by depth", cd->GetArray("depth"),
-                           [&](vtkIdType i) { return cls->GetTuple1(i) == CLASS_SURFACE; });
-        }
-        print_by_depth(out, "nodes by depth", cd->GetArray("depth"), [](vtkIdType) { return true; });
-        print_arrays(out, cd);
+        htg_info(out, path, "VTK HyperTreeGrid: octree cells", r->GetOutput());
+    } else if (type == "PHyperTreeGrid") {
+        vtkNew<vtkXMLPHyperTreeGridReader> r;
+        read_xml(r.Get(), path);
+        std::string what = "VTK PHyperTreeGrid: the octree cells of " +
+                           std::to_string(r->GetNumberOfPieces()) + " pieces";
+        htg_info(out, path, what.c_str(), r->GetOutput());
     } else if (type == "PolyData") {
         vtkNew<vtkXMLPolyDataReader> r;
         read_xml(r.Get(), path);

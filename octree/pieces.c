@@ -74,15 +74,30 @@ static char *read_text(const char *path, ivoct_error_t *err)
         ivoct_error_set(err, "cannot open %s", path);
         return NULL;
     }
-    char *text = malloc(MAX_INDEX + 1);
-    size_t n = text ? fread(text, 1, MAX_INDEX + 1, f) : 0;
-    int bad = ferror(f);
+    char *text = NULL;
+    size_t n = 0, cap = 0;
+    const char *why = NULL;
+    while (!why) {
+        if (n == cap) {
+            cap = cap ? 2 * cap : (size_t)1 << 16;
+            char *t = cap <= MAX_INDEX ? realloc(text, cap + 1) : NULL;
+            if (!t) {
+                why = cap > MAX_INDEX ? "%s: index too large" : "%s: out of memory";
+                break;
+            }
+            text = t;
+        }
+        size_t got = fread(text + n, 1, cap - n, f);
+        n += got;
+        if (got == 0)
+            break;
+    }
+    if (!why && ferror(f))
+        why = "cannot read %s";
     fclose(f);
-    if (!text || bad || n > MAX_INDEX) {
+    if (why) {
         free(text);
-        ivoct_error_set(err, !text ? "%s: out of memory" : bad ? "cannot read %s"
-                                                               : "%s: index too large",
-                        path);
+        ivoct_error_set(err, why, path);
         return NULL;
     }
     text[n] = '\0';

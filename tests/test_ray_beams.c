@@ -269,17 +269,6 @@ static void camera_of(const scene_t *s, int w, int h, ray_camera_t *cam)
                      0);
 }
 
-/* A light up and to the right of the target, as far as the eye. */
-static void light_of(const ray_camera_t *cam, double light[3])
-{
-    double r = 0;
-    for (int a = 0; a < 3; a++)
-        r += (cam->eye[a] - cam->target[a]) * (cam->eye[a] - cam->target[a]);
-    r = sqrt(r);
-    for (int a = 0; a < 3; a++)
-        light[a] = cam->target[a] + r * (0.8 * cam->right[a] + 0.6 * cam->vup[a]);
-}
-
 /* The eight comparison surfaces at their scene's camera, every method; the
  * image 48x40 (three partial tiles a row and column); and the box source,
  * which has no beams. */
@@ -320,7 +309,7 @@ static void test_csg(void **state)
     ray_camera_t cam;
     camera_of(&s, size, size, &cam);
     double light[3];
-    light_of(&cam, light);
+    tu_side_light(&cam, light);
     setup_t su = {.tape = s.tape, .cam = &cam, .box = s.box, .tree = tree};
     assert_true(compare_methods(&su, 2, "csg-64-spheres") > 0);
     double margin = fmax(ray_tape_margin(&cam, s.box), ray_light_tape_margin(light, s.box));
@@ -380,7 +369,7 @@ static void test_stress_scenes(void **state)
                                  0);
             }
             double light[3];
-            light_of(&cam, light);
+            tu_side_light(&cam, light);
             oct_leaf_tapes_t *lt = NULL;
             if (tape_has_choices(s.tape)) {
                 double margin =

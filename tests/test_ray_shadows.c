@@ -59,20 +59,7 @@
 enum { SRC_BOX, SRC_OCTREE, NSRC };
 static const char *const SRC_NAME[NSRC] = {"box", "octree"};
 
-/* To the right of the target and above it, seen from the eye, as far from the
- * target as the eye: a light from the side, so that every surface casts
- * shadows and holds attached ones. */
-static void light_of(const ray_camera_t *cam, double light[3])
-{
-    double r = 0;
-    for (int a = 0; a < 3; a++)
-        r += (cam->eye[a] - cam->target[a]) * (cam->eye[a] - cam->target[a]);
-    r = sqrt(r);
-    for (int a = 0; a < 3; a++)
-        light[a] = cam->target[a] + r * (0.8 * cam->right[a] + 0.6 * cam->vup[a]);
-}
-
-/* The scene's camera at size x size, and light_of it. */
+/* The scene's camera at size x size, and tu_side_light of it. */
 static void camera_and_light(const scene_t *s, int size, ray_camera_t *cam, double light[3])
 {
     ivoct_error_t err;
@@ -80,7 +67,7 @@ static void camera_and_light(const scene_t *s, int size, ray_camera_t *cam, doub
     assert_int_equal(ray_camera_init(cam, s->camera.eye, s->camera.target, s->camera.up,
                                      s->camera.fov, size, size, &err),
                      0);
-    light_of(cam, light);
+    tu_side_light(cam, light);
 }
 
 static void render(const scene_t *s, const ray_camera_t *cam, const oct_tree_t *tree,

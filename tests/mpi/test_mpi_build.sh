@@ -6,12 +6,16 @@
 # refinement: the gathered .ivo is the single-process file byte for byte (cmp), the
 # rows of the CSV pieces (.pcsv) are the single CSV's rows, the leaves of the pieces
 # add up to the stats' leaves, the .pvtu read by VTK's vtkXMLPUnstructuredGridReader
-# (python3-vtk9) has as many cells as the stats say leaves, and the stats' counts
-# are the single build's; with --certain the pieces' rows, the .ivo and leaves_certain
-# are the single build's.  Then the failures: a bad scene and a bad option (exit 2 on
-# every rank, one message), an unwritable folder, pieces past --max-memory and a piece
-# only one rank cannot write (exit 1, one message naming it), each leaving no piece, index, temporary,
-# and a file that was at an output's path untouched.
+# (python3-vtk9) has as many cells as the stats say leaves, the .phtg read by VTK's
+# vtkXMLPHyperTreeGridReader has the stats' surface leaves and the single .htg's cells
+# from the frontier down, value for value (tests/check_phtg.py), and the stats' counts
+# are the single build's; with --certain the pieces' rows and arrays, the .ivo and
+# leaves_certain are the single build's; a tree without a frontier (all of it the top)
+# makes .htg pieces too.  Then the failures: a bad scene and a bad option (exit 2 on
+# every rank, one message), an unwritable folder, pieces past --max-memory, a piece
+# only one rank cannot write and a surface leaf above the frontier in .htg pieces (exit
+# 1, one message naming it), each leaving no piece, index, temporary, and a file that
+# was at an output's path untouched.
 #
 # Needs IVOCT_BIN, IVOCT_SOURCE_DIR and IVOCT_MPIEXEC (mpirun), as set by ctest.
 set -u
@@ -41,6 +45,16 @@ print(r.GetOutput().GetNumberOfCells())
 PY
 }
 
+# check_phtg P.phtg ONE.htg STATS WHAT: the .phtg against the single .htg
+check_phtg() {
+    if "$PY" "$SRC/tests/check_phtg.py" --phtg "$1" --htg "$2" --stats "$3" >"$TMP/check" 2>&1; then
+        ok
+    else
+        fail "$4: tests/check_phtg.py:"
+        sed 's/^/    /' "$TMP/check" >&2
+    fi
+}
+
 json_key() { "$PY" -c "import json,sys; d=json.load(open(sys.argv[1])); print(eval('d'+sys.argv[2]))" "$1" "$2"; }
 
 scenes=(sphere drop chubs crosscap gumdrop horned-cube mcmullen-k3 kusner-schmitt csg-64-spheres)
@@ -55,13 +69,23 @@ for sc in "${scenes[@]}"; do
         # shellcheck disable=SC2206
         extra=($v)
         tag="$sc${v:+ (refine)}"
+        # VTK's parallel readers on the indexes: one comparison surface, the CSG scene
+        # (under the sanitizers the .htg pieces of the first alone: VTK's 0.0 writer makes
+        # many small allocations, which cost ~7 s a run there with full stacks)
+        vtk_read=0 htg_read=0
+        { [ "$sc" = gumdrop ] || [ "$sc" = csg-64-spheres ]; } && vtk_read=1
+        [ $vtk_read = 1 ] && htg_read=1
+        [ "${IVOCT_ASAN:-0}" = 1 ] && { [ "$sc" != gumdrop ] || [ -n "$v" ]; } && htg_read=0
+        one_htg=() p_htg=()
+        [ $htg_read = 1 ] && one_htg=(--htg "$W/one.htg") p_htg=(--htg "$W/p.phtg")
         run 0 "$tag: single" -- build "$SCENES/$sc.ini" --depth $depth "${extra[@]}" \
-            --save "$W/one.ivo" --cells "$W/one.csv" --stats "$W/one.json" --quiet || continue
+            --save "$W/one.ivo" --cells "$W/one.csv" --stats "$W/one.json" "${one_htg[@]}" \
+            --quiet || continue
         for np in 1 2 3; do
             rm -f "$W"/p*
             mpirun_ivoct $np 0 "$tag: $np ranks" -- build "$SCENES/$sc.ini" --depth $depth \
                 "${extra[@]}" --save "$W/p.ivo" --cells "$W/p.pcsv" --vtu "$W/p.pvtu" \
-                --stats "$W/p.json" --quiet || continue
+                "${p_htg[@]}" --stats "$W/p.json" --quiet || continue
             cmp -s "$W/one.ivo" "$W/p.ivo" && ok || fail "$tag, $np ranks: the .ivo differs"
             pieces=("$W"/p_*.csv)
             [ ${#pieces[@]} -eq $np ] && ok || fail "$tag, $np ranks: ${#pieces[@]} CSV pieces"
@@ -76,27 +100,39 @@ for sc in "${scenes[@]}"; do
             taken=$(json_key "$W/p.json" "['mpi']['rank_subtrees']" | tr -d '[] ' | tr , '\n' |
                 awk '{ s += $1 } END { print s + 0 }')
             [ "$taken" = "$subtrees" ] && ok || fail "$tag, $np ranks: ranks built $taken of $subtrees subtrees"
-            # VTK's parallel reader on the index: one comparison surface, the CSG scene
-            if [ "$sc" = gumdrop ] || [ "$sc" = csg-64-spheres ]; then
+            if [ $vtk_read = 1 ]; then
                 cells=$(vtk_cells "$W/p.pvtu")
                 [ "$cells" = "$leaves" ] && ok || fail "$tag, $np ranks: the .pvtu has $cells cells, stats $leaves leaves"
+                info=$("$BIN" info "$W/p.pvtu" | sed -n 's/^leaves: *//p')
+                [ "$info" = "$leaves" ] && ok || fail "$tag, $np ranks: ivoct info of the .pvtu says '$info' leaves, stats $leaves"
+            fi
+            if [ $htg_read = 1 ]; then
+                pieces=("$W"/p_*.htg)
+                [ ${#pieces[@]} -eq $np ] && ok || fail "$tag, $np ranks: ${#pieces[@]} .htg pieces"
+                check_phtg "$W/p.phtg" "$W/one.htg" "$W/p.json" "$tag, $np ranks"
+                info=$("$BIN" info "$W/p.phtg" | sed -n 's/^leaves: *//p')
+                [ "$info" = "$leaves" ] && ok || fail "$tag, $np ranks: ivoct info of the .phtg says '$info' leaves, stats $leaves"
             fi
         done
     done
 done
 
-# --certain: the pieces' rows (with their certain and witness columns) and the gathered
-# .ivo are the single build's, the reduced leaves_certain too (with pieces and with the
-# stats alone)
+# --certain: the pieces' rows (with their certain and witness columns), the .htg pieces'
+# certain array and the gathered .ivo are the single build's, the reduced leaves_certain
+# too (with pieces and with the stats alone)
 for sc in gumdrop csg-64-spheres; do
+    one_htg=(--htg "$W/one.htg") p_htg=(--htg "$W/p.phtg")
+    [ "${IVOCT_ASAN:-0}" = 1 ] && [ "$sc" != gumdrop ] && one_htg=() p_htg=()
     run 0 "$sc --certain: single" -- build "$SCENES/$sc.ini" --depth $depth --certain \
-        --save "$W/one.ivo" --cells "$W/one.csv" --stats "$W/one.json" --quiet || continue
+        --save "$W/one.ivo" --cells "$W/one.csv" "${one_htg[@]}" --stats "$W/one.json" \
+        --quiet || continue
     want=$(json_key "$W/one.json" "['leaves_certain']")
     [ "$want" -gt 0 ] && ok || fail "$sc --certain: no certain leaf in the single build"
     rm -f "$W"/p*
     mpirun_ivoct 3 0 "$sc --certain: 3 ranks" -- build "$SCENES/$sc.ini" --depth $depth --certain \
-        --save "$W/p.ivo" --cells "$W/p.pcsv" --stats "$W/p.json" --quiet && {
+        --save "$W/p.ivo" --cells "$W/p.pcsv" "${p_htg[@]}" --stats "$W/p.json" --quiet && {
         cmp -s "$W/one.ivo" "$W/p.ivo" && ok || fail "$sc --certain, 3 ranks: the .ivo differs"
+        [ ${#p_htg[@]} = 0 ] || check_phtg "$W/p.phtg" "$W/one.htg" "$W/p.json" "$sc --certain, 3 ranks"
         [ "$(rows "$W/one.csv" | md5sum)" = "$(rows "$W"/p_*.csv | md5sum)" ] && ok ||
             fail "$sc --certain, 3 ranks: the pieces' rows are not the single CSV's"
         [ "$(json_key "$W/p.json" "['leaves_certain']")" = "$want" ] && ok ||
@@ -109,12 +145,58 @@ for sc in gumdrop csg-64-spheres; do
     }
 done
 
+# --save F.pivo: one .ivo piece per rank and the index, which `ivoct info` and `ivoct render
+# --octree` read as the whole tree (tests/test_octree_pieces.c checks it leaf for leaf,
+# tests/mpi/test_mpi_render_tiles.sh renders from it): its summary is the single file's, the
+# index's leaves are the stats', and each piece is an .ivo of its own
+info_tree() { "$BIN" info "$1" | grep -v '^file:'; }
+printf '[surface]\nf = min(z - 0.3, (x - 0.4)^2 + (y - 0.4)^2 + (z - 0.7)^2 - 0.04)\nbox = -1 1 -1 1 -1 1\n' \
+    >"$W/flat.ini"
+pivo_cases=("gumdrop.ini" "gumdrop.ini --certain" "csg-64-spheres.ini --tests interval,ilie --refine 1e-2")
+# the flat scene has surface leaves above the frontier (--refine stops on the plane at depth
+# 2 to 5): they are in piece 0 alone
+pivo_cases+=("$W/flat.ini --depth 7 --tests interval,ilie --refine 1e-3")
+[ "${IVOCT_ASAN:-0}" = 1 ] && pivo_cases=("${pivo_cases[1]}" "${pivo_cases[3]}")
+for c in "${pivo_cases[@]}"; do
+    # shellcheck disable=SC2206
+    args=($c)
+    scene=${args[0]}
+    [ "${scene#/}" = "$scene" ] && scene=$SCENES/$scene
+    tag=".pivo: ${c##*/}"
+    run 0 "$tag: single" -- build "$scene" --depth $depth "${args[@]:1}" --save "$W/one.ivo" \
+        --quiet || continue
+    rm -f "$W"/p*
+    mpirun_ivoct 3 0 "$tag: 3 ranks" -- build "$scene" --depth $depth "${args[@]:1}" \
+        --save "$W/p.pivo" --stats "$W/p.json" --quiet || continue
+    pieces=("$W"/p_*.ivo)
+    [ ${#pieces[@]} -eq 3 ] && ok || fail "$tag: ${#pieces[@]} .ivo pieces"
+    diff <(info_tree "$W/one.ivo") <(info_tree "$W/p.pivo") >/dev/null && ok ||
+        fail "$tag: ivoct info of the pieces: $(diff <(info_tree "$W/one.ivo") <(info_tree "$W/p.pivo") | tr '\n' ' ')"
+    "$BIN" info "$W/p.pivo" | grep -q '^file: .*(ivoct octree in 3 pieces)' && ok ||
+        fail "$tag: ivoct info does not say 3 pieces"
+    leaves=$(json_key "$W/p.json" "['leaves']")
+    indexed=$(awk -F, 'NR > 1 && !/^#/ { s += $2 } END { print s + 0 }' "$W/p.pivo")
+    [ "$indexed" = "$leaves" ] && ok || fail "$tag: the .pivo says $indexed leaves, stats $leaves"
+    "$BIN" info "$W/p_1.ivo" >/dev/null && ok || fail "$tag: a piece is not an .ivo of its own"
+done
+
 # one-file exports over MPI are the single build's files
 run 0 "single vtu" -- build "$SCENES/gumdrop.ini" --depth $depth --vtu "$W/one.vtu" --cells "$W/one.csv" --quiet
 mpirun_ivoct 2 0 "gathered vtu" -- build "$SCENES/gumdrop.ini" --depth $depth --vtu "$W/g.vtu" \
     --cells "$W/g.csv" --quiet &&
     { cmp -s "$W/one.vtu" "$W/g.vtu" && cmp -s "$W/one.csv" "$W/g.csv" && ok ||
         fail "gathered .vtu or .csv differs from the single build's"; }
+
+# no frontier (a build too shallow to have 256 cells to split: the top is the whole
+# tree, on rank 0): its .htg piece has the single .htg's 2x2x2 trees, the others none
+run 0 "single, no frontier" -- build "$SCENES/gumdrop.ini" --depth 2 --htg "$W/one.htg" \
+    --stats "$W/one.json" --quiet
+rm -f "$W"/p*
+mpirun_ivoct 2 0 "no frontier, 2 ranks" -- build "$SCENES/gumdrop.ini" --depth 2 --htg "$W/p.phtg" \
+    --stats "$W/p.json" --quiet && {
+    [ "$(json_key "$W/p.json" "['mpi']['subtrees']")" = 0 ] && ok || fail "no frontier: the build has one"
+    check_phtg "$W/p.phtg" "$W/one.htg" "$W/p.json" "no frontier, 2 ranks"
+}
 
 # the stats alone (nothing gathered, no pieces): the counts reduced over the ranks
 run 0 "single stats" -- build "$SCENES/csg-64-spheres.ini" --depth $depth --stats "$W/one.json" --quiet
@@ -141,7 +223,7 @@ one_message() {
 }
 nothing_left() {
     local what=$1 left
-    left=$(cd "$F" && ls -A | grep -v -x -e keep.ivo -e p_1.vtu -e bad.ini | head -5)
+    left=$(cd "$F" && ls -A | grep -v -x -e keep.ivo -e p_1.vtu -e p_1.htg -e p_1.ivo -e bad.ini -e flat.ini | head -5)
     [ -z "$left" ] && ok || fail "$what: left behind: $left"
 }
 printf '[surface]\nf = x^2 +* y\nbox = -1 1 -1 1 -1 1\n' >"$F/bad.ini"
@@ -151,7 +233,6 @@ mpirun_ivoct 3 2 "bad scene" -- build "$F/bad.ini" --save "$F/keep.ivo" --vtu "$
 nothing_left "bad scene"
 mpirun_ivoct 3 2 "bad option" -- build "$SCENES/sphere.ini" --depth 99 --cells "$F/p.pcsv" &&
     one_message "bad option" "--depth"
-mpirun_ivoct 2 2 ".phtg" -- build "$SCENES/sphere.ini" --htg "$F/p.phtg" && one_message ".phtg" ".phtg"
 mpirun_ivoct 3 1 "missing folder" -- build "$SCENES/sphere.ini" --depth 4 --save "$F/keep.ivo" \
     --vtu "$F/none/p.pvtu" && one_message "missing folder" "none/p_0.vtu"
 nothing_left "missing folder"
@@ -163,15 +244,43 @@ mpirun_ivoct 2 1 "pieces past the budget" -- build "$SCENES/gumdrop.ini" --depth
     --max-memory 2M --vtu "$F/p.pvtu" &&
     one_message "pieces past the budget" "--vtu needs" "past the memory budget of 2.0 MB"
 nothing_left "pieces past the budget"
+# the .htg pieces: 300 bytes a node beside the part (gumdrop has 26 000 cells at depth 5,
+# 100 000 at depth 6: the larger part at least half of them)
+mpirun_ivoct 2 1 ".htg pieces past the budget" -- build "$SCENES/gumdrop.ini" --depth $depth \
+    --max-memory 2M --htg "$F/p.phtg" &&
+    one_message ".htg pieces past the budget" "--htg needs" "past the memory budget of 2.0 MB"
+nothing_left ".htg pieces past the budget"
 mpirun_ivoct 2 0 "pieces within the budget" -- build "$SCENES/gumdrop.ini" --depth $depth \
-    --max-memory 64M --cells "$F/q.pcsv" --vtu "$F/q.pvtu" --quiet &&
-    { [ -s "$F/q.pvtu" ] && [ -s "$F/q_1.vtu" ] && ok || fail "pieces within the budget: no files"; }
+    --max-memory 64M --cells "$F/q.pcsv" --vtu "$F/q.pvtu" --htg "$F/q.phtg" --quiet &&
+    { [ -s "$F/q.pvtu" ] && [ -s "$F/q_1.vtu" ] && [ -s "$F/q.phtg" ] && [ -s "$F/q_1.htg" ] &&
+        ok || fail "pieces within the budget: no files"; }
 rm -f "$F"/q*
 # only rank 1 cannot write its piece: the others' files must not stay either
 mkdir "$F/p_1.vtu"
 mpirun_ivoct 3 1 "one rank's piece" -- build "$SCENES/sphere.ini" --depth 4 --save "$F/keep.ivo" \
     --cells "$F/p.pcsv" --vtu "$F/p.pvtu" && one_message "one rank's piece" "p_1.vtu"
 nothing_left "one rank's piece"
+rmdir "$F/p_1.vtu"
+mkdir "$F/p_1.htg"
+mpirun_ivoct 3 1 "one rank's .htg piece" -- build "$SCENES/sphere.ini" --depth 4 \
+    --save "$F/keep.ivo" --vtu "$F/p.pvtu" --htg "$F/p.phtg" &&
+    one_message "one rank's .htg piece" "p_1.htg"
+nothing_left "one rank's .htg piece"
+rmdir "$F/p_1.htg"
+mkdir "$F/p_1.ivo"
+mpirun_ivoct 3 1 "one rank's .ivo piece" -- build "$SCENES/sphere.ini" --depth 4 \
+    --cells "$F/p.pcsv" --save "$F/p.pivo" && one_message "one rank's .ivo piece" "p_1.ivo"
+nothing_left "one rank's .ivo piece"
+rmdir "$F/p_1.ivo"
+# a surface leaf above the frontier (--refine stops on the plane at depth 2 to 5, the
+# small sphere makes the frontier at depth 6): no tree of the .htg pieces' grid is its
+# cell, so the .phtg is refused (a .htg is written whole)
+printf '[surface]\nf = min(z - 0.3, (x - 0.4)^2 + (y - 0.4)^2 + (z - 0.7)^2 - 0.04)\nbox = -1 1 -1 1 -1 1\n' \
+    >"$F/flat.ini"
+mpirun_ivoct 2 1 "a leaf above the frontier" -- build "$F/flat.ini" --depth 7 --tests interval,ilie \
+    --refine 1e-3 --vtu "$F/p.pvtu" --htg "$F/p.phtg" &&
+    one_message "a leaf above the frontier" "p_0.htg" "a surface leaf of depth"
+nothing_left "a leaf above the frontier"
 [ "$(cat "$F/keep.ivo")" = old ] && ok || fail "a file at an output's path was changed"
 
 cli_summary

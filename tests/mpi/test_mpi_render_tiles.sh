@@ -3,8 +3,9 @@
 # docs/cluster.md): each frame cut into parts, one per rank (the 16x16 tiles (tx, ty) with
 # (tx + ty) mod N = rank), gathered on rank 0, which writes the files.
 #
-# For N = 1, 2, 3 (oversubscribed) on the CSG scene (its octree loaded by every rank; and
-# with a point light, whose shadow flags travel with the pixels), the
+# For N = 1, 2, 3 (oversubscribed) on the CSG scene (its octree loaded by every rank, from
+# one file and from the pieces of a build over 3 ranks (.pivo), which give the same files;
+# and with a point light, whose shadow flags travel with the pixels), the
 # gumdrop without an octree under several methods, and a sphere whose octree every rank
 # builds: the PNG and the .vti are the single-process files (cmp), at a size whose last
 # row and column of tiles are partial; the stats' sums are the single render's, the
@@ -28,7 +29,7 @@ asan=${IVOCT_ASAN:-0}
 nps="1 2 3" few=3
 [ "$asan" = 1 ] && nps="2 3" few=2
 # the sums of the stats (time_s and threads are not sums of work)
-totals() { grep -E '"(frames|rays|hits|tangent_hits|tape_evals|segments|leaves_visited|width|height|shadow_[a-z_]+|shadowed)"' "$1"; }
+totals() { grep -E '"(frames|rays|hits|tangent_hits|tape_evals|segments|leaves_visited|width|height|shadow_[a-z_]+|shadowed|beams|rays_decided_by_beam)"' "$1"; }
 json_key() { "$PY" -c "import json,sys; d=json.load(open(sys.argv[1])); print(eval('d'+sys.argv[2]))" "$1" "$2"; }
 
 # mpi_figures TAG NP JSON BYTES_A_PIXEL: the "mpi" object of a split render
@@ -86,6 +87,15 @@ compare() {
 # the CSG scene, its octree (shallow: the render is what is tested) loaded by every rank
 run 0 "csg: octree" -- build "$SCENES/csg-64-spheres.ini" --depth 6 --save "$W/csg.ivo" --quiet
 compare "csg" "$nps" "$SCENES/csg-64-spheres.ini" --octree "$W/csg.ivo"
+cp "$W/one.png" "$W/csg-ivo.png" && cp "$W/one.vti" "$W/csg-ivo.vti"
+# the same octree saved in pieces by a build over 3 ranks (--save F.pivo): every rank reads
+# the index and puts the pieces together; the files are those rendered from the one file
+mpirun_ivoct 3 0 "csg: octree in pieces" -- build "$SCENES/csg-64-spheres.ini" --depth 6 \
+    --threads 1 --save "$W/csgp.pivo" --quiet && {
+    compare "csg, octree in pieces" "$few" "$SCENES/csg-64-spheres.ini" --octree "$W/csgp.pivo"
+    cmp -s "$W/one.png" "$W/csg-ivo.png" && cmp -s "$W/one.vti" "$W/csg-ivo.vti" && ok ||
+        fail "csg: the render from the pieces is not the render from the one file"
+}
 # with a point light: the shadows travel with the pixels
 compare "csg, a light" "$few" "$SCENES/csg-64-spheres.ini" --octree "$W/csg.ivo" --light 3 -4 5
 # methods, without an octree

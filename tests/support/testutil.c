@@ -11,6 +11,8 @@
 #include <string.h>
 #include <time.h>
 
+#include "../../ray/ray.h"
+
 #include <cmocka.h>
 
 uint64_t tu_seed(uint64_t fallback)
@@ -172,6 +174,16 @@ int tu_image_size(int full)
 {
     int n = (int)(full * sqrt(tu_scale()) + 0.5);
     return n < 16 ? 16 : n;
+}
+
+void tu_side_light(const ray_camera_t *cam, double light[3])
+{
+    double r = 0;
+    for (int a = 0; a < 3; a++)
+        r += (cam->eye[a] - cam->target[a]) * (cam->eye[a] - cam->target[a]);
+    r = sqrt(r);
+    for (int a = 0; a < 3; a++)
+        light[a] = cam->target[a] + r * (0.8 * cam->right[a] + 0.6 * cam->vup[a]);
 }
 
 void tu_load_scene(const char *name, scene_t *s)

@@ -87,6 +87,12 @@ oct_tree_t *tu_scene_octree(const scene_t *s);
  * 16 (so that the pixel count scales with IVOCT_TEST_SCALE). */
 int tu_image_size(int full);
 
+/* A point light to the right of the camera's target and above it, as far
+ * from the target as the eye: a light from the side, so that every surface
+ * casts shadows and holds attached ones. */
+struct ray_camera;
+void tu_side_light(const struct ray_camera *cam, double light[3]);
+
 /* The whole file, NUL-terminated (not counted in *n; n may be NULL), malloc'd;
  * fails the current test when it cannot be read.  tu_read_stream: the same
  * for what is left of an open stream (rewind it first for the whole). */

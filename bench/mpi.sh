@@ -62,6 +62,8 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 args=(--oversubscribe)
 [ "$(id -u)" -eq 0 ] && args+=(--allow-run-as-root)
+# Open MPI binds a rank to one core (N <= 2) or a socket: a rank's threads need the node
+[ "$threads" -gt 1 ] && args+=(--bind-to none)
 # the gather of large messages: plain copies where CMA is refused (containers), as tests/mpi/
 export OMPI_MCA_btl_vader_single_copy_mechanism=none
 if [ $do_build = 1 ]; then

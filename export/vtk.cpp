@@ -825,8 +825,6 @@ double max_of(vtkDataArray *a)
     return m;
 }
 
-}  // namespace
-
 // The summaries of `ivoct info`: a .vtu (or the pieces of a .pvtu put together).
 void ug_info(FILE *out, const char *path, const char *what, vtkUnstructuredGrid *ug)
 {
@@ -880,6 +878,8 @@ void htg_info(FILE *out, const char *path, const char *what, vtkHyperTreeGrid *h
     print_by_depth(out, "nodes by depth", cd->GetArray("depth"), [](vtkIdType) { return true; });
     print_arrays(out, cd);
 }
+
+}  // namespace
 
 void vtk_info(const char *path, FILE *out)
 {

@@ -398,10 +398,6 @@ static int merge(const char *path, const piece_t *p, int n, oct_tree_t **out, iv
         oct_free(t);
         return -1;
     }
-    for (int d = 0; d <= OCT_MAX_DEPTH; d++)
-        t->stats.leaves_by_depth[d] = 0;
-    for (uint32_t i = 0; i < t->n_leaves; i++)
-        t->stats.leaves_by_depth[oct_leaf_depth(&t->leaves[i])]++;
     *out = t;
     return 0;
 }

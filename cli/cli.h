@@ -13,7 +13,9 @@
 #include "../octree/octree.h"
 
 /* Exit codes (docs/DESIGN.md §4). */
-enum { EXIT_OK = 0, EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
+/* EXIT_UNCERTIFIED: build --mesh-certified could not certify the mesh's
+ * topology in some cells (listed on stderr); nothing written. */
+enum { EXIT_OK = 0, EXIT_RUNTIME = 1, EXIT_USAGE = 2, EXIT_UNCERTIFIED = 3 };
 
 #define IVOCT_VERSION "0.1.0"
 
@@ -87,6 +89,8 @@ struct io_group;
 
 typedef struct exports {
     const char *vtu, *htg, *vdb, *mesh;
+    const char *mesh_certified; /* --mesh-certified F */
+    int mesh_min_depth;         /* --mesh-min-depth, -1: the max depth - 2 */
 } exports_t;
 
 /* Keys added at the end of the stats file: write(f, user) prints
@@ -115,7 +119,7 @@ int build_check_export_memory(const struct oct_tree *t, const char *cells, const
 int build_cells_threads(const struct oct_tree *t, int threads, size_t budget);
 
 /* Write every output of job for tree into g (not committed): EXIT_OK, or
- * EXIT_RUNTIME with err set. */
+ * EXIT_RUNTIME or EXIT_UNCERTIFIED with err set. */
 int build_write_outputs(const build_job_t *job, const struct oct_tree *tree,
                         struct io_group *g, const build_stats_extra_t *extra,
                         ivoct_error_t *err);

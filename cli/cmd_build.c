@@ -10,6 +10,7 @@
 
 #include "../export/export.h"
 #include "../io/io.h"
+#include "../mesh/mesh.h"
 #include "../octree/octree.h"
 #include "../scene/scene.h"
 #include "cli.h"
@@ -36,8 +37,33 @@ static void json_u64_array(FILE *f, const uint64_t *v, int n)
 
 /* certain: the leaves were certified (--certain): t->certain, or, for the
  * counts of a build over MPI that holds no tree, the ranks' parts */
+static void write_mesh_stats(FILE *o, const msh_mesh_t *m, const msh_params_t *p)
+{
+    const msh_stats_t *st = &m->stats;
+    fprintf(o,
+            ",\n  \"mesh_certified\": {\"certified\": %s, \"vertices\": %zu, \"triangles\": %zu, "
+            "\"cells_meshed\": %zu, \"max_depth\": %d, \"min_depth\": %d,\n"
+            "    \"cells_evaluated\": %llu, \"leaves_empty\": %llu, \"leaves_surface\": %llu, "
+            "\"leaves_unresolved\": %llu, \"failures\": %zu,\n"
+            "    \"split_balance\": %llu, \"split_face\": %llu, \"split_loops\": %llu, "
+            "\"split_apex\": %llu, \"passes\": %llu,\n"
+            "    \"sign_evaluations\": %llu, \"apex_off_surface\": %llu, \"time_s\": ",
+            m->n_failures ? "false" : "true", m->n_points, m->n_tris, m->n_cells, p->max_depth,
+            p->min_depth, (unsigned long long)st->cells_evaluated,
+            (unsigned long long)st->leaves_empty, (unsigned long long)st->leaves_surface,
+            (unsigned long long)st->leaves_unresolved, m->n_failures,
+            (unsigned long long)st->split_balance, (unsigned long long)st->split_face,
+            (unsigned long long)st->split_loops, (unsigned long long)st->split_apex,
+            (unsigned long long)st->passes, (unsigned long long)st->sign_evaluations,
+            (unsigned long long)st->apex_off_surface);
+    cli_json_double(o, st->seconds);
+    fputc('}', o);
+}
+
+/* mesh, mesh_params: the certified mesh (--mesh-certified), or NULL */
 static int write_stats(const scene_t *s, const oct_tree_t *t, bool certain, io_group_t *g,
-                       const char *path, const build_stats_extra_t *extra, ivoct_error_t *err)
+                       const char *path, const msh_mesh_t *mesh, const msh_params_t *mesh_params,
+                       const build_stats_extra_t *extra, ivoct_error_t *err)
 {
     const oct_stats_t *st = &t->stats;
     io_file_t f;
@@ -95,21 +121,137 @@ static int write_stats(const scene_t *s, const oct_tree_t *t, bool certain, io_g
         cli_json_double(o, st->certain_time_s);
         fprintf(o, ",\n  \"certain_bytes_per_leaf\": %zu", sizeof *t->certain);
     }
+    if (mesh)
+        write_mesh_stats(o, mesh, mesh_params);
     if (extra)
         extra->write(o, extra->user);
     fputs("\n}\n", o);
     return io_group_add(g, &f, err);
 }
 
-/* ---- exports (export/): --vtu --htg --vdb --mesh ---------------------------------- */
+/* ---- exports (export/): --vtu --htg --vdb --mesh --mesh-certified ------------------ */
 
 /* Usage errors found before the build: exit 2, nothing built. */
-static int check_exports(const exports_t *ex)
+static int check_exports(const exports_t *ex, int depth)
 {
     if (ex->mesh && !exp_mesh_supported(ex->mesh))
         return cli_usage_error("build", "--mesh '%s': the name must end in .vtp, .ply or .obj",
                                ex->mesh);
+    if (ex->mesh_certified && !exp_mesh_supported(ex->mesh_certified))
+        return cli_usage_error("build",
+                               "--mesh-certified '%s': the name must end in .vtp, .ply or .obj",
+                               ex->mesh_certified);
+    if (ex->mesh_certified && (depth < 1 || depth > MSH_MAX_DEPTH))
+        return cli_usage_error("build", "--mesh-certified needs a depth of 1..%d, not %d",
+                               MSH_MAX_DEPTH, depth);
+    if (ex->mesh_min_depth > depth)
+        return cli_usage_error("build", "--mesh-min-depth %d is deeper than the depth %d",
+                               ex->mesh_min_depth, depth);
+    if (ex->mesh_min_depth >= 0 && !ex->mesh_certified)
+        return cli_usage_error("build", "--mesh-min-depth goes with --mesh-certified");
     return EXIT_OK;
+}
+
+static msh_params_t mesh_params(const build_job_t *job)
+{
+    int depth = job->params.depth, min = job->ex.mesh_min_depth;
+    msh_params_t p = {depth, min >= 0 ? min : depth > 2 ? depth - 2 : 0, 0};
+    return p;
+}
+
+/* Do two closed boxes touch? */
+static bool boxes_touch(const iv_box_t *a, const iv_box_t *b)
+{
+    const iv_t *p = &a->x, *q = &b->x;
+    for (int k = 0; k < 3; k++)
+        if (p[k].hi < q[k].lo || q[k].hi < p[k].lo)
+            return false;
+    return true;
+}
+
+static size_t region_root(size_t *parent, size_t i)
+{
+    while (parent[i] != i)
+        i = parent[i] = parent[parent[i]];
+    return i;
+}
+
+/* The cells where the certified mesh failed, on stderr, gathered into regions
+ * of touching cells (a singular point makes one region). */
+static void report_failures(const msh_mesh_t *m, int max_depth)
+{
+    size_t n = m->n_failures, *parent = malloc(n * sizeof *parent);
+    /* pairwise: fine for the thousands of cells a failure has; beyond that
+     * each cell is its own region */
+    bool gather = parent && n <= 20000;
+    for (size_t i = 0; parent && i < n; i++)
+        parent[i] = i;
+    for (size_t i = 0; gather && i < n; i++)
+        for (size_t j = i + 1; j < n; j++)
+            if (boxes_touch(&m->failures[i].box, &m->failures[j].box))
+                parent[region_root(parent, i)] = region_root(parent, j);
+    size_t regions = 0;
+    for (size_t i = 0; parent && i < n; i++)
+        regions += region_root(parent, i) == i;
+    fprintf(stderr,
+            "ivoct build: --mesh-certified: the topology is not certified in %zu cell%s "
+            "(max depth %d), in %zu region%s:\n",
+            n, n > 1 ? "s" : "", max_depth, regions, regions > 1 ? "s" : "");
+    size_t shown = 0;
+    for (size_t r = 0; parent && r < n && shown < 20; r++) {
+        if (region_root(parent, r) != r)
+            continue;
+        size_t cells = 0, by[MSH_FAIL_LOOPS + 1] = {0};
+        iv_box_t hull = m->failures[r].box;
+        iv_t *h = &hull.x;
+        for (size_t i = 0; i < n; i++) {
+            if (region_root(parent, i) != r)
+                continue;
+            const iv_t *b = &m->failures[i].box.x;
+            for (int k = 0; k < 3; k++)
+                h[k] = iv_hull(h[k], b[k]);
+            cells++;
+            by[m->failures[i].reason]++;
+        }
+        fprintf(stderr, "  %zu cell%s in [%.9g, %.9g] x [%.9g, %.9g] x [%.9g, %.9g]:", cells,
+                cells > 1 ? "s" : "", h[0].lo, h[0].hi, h[1].lo, h[1].hi, h[2].lo, h[2].hi);
+        for (int k = 0; k <= MSH_FAIL_LOOPS; k++)
+            if (by[k])
+                fprintf(stderr, " %s %zu", msh_reason_name((msh_reason_t)k), by[k]);
+        fputc('\n', stderr);
+        shown++;
+    }
+    if (regions > shown)
+        fprintf(stderr, "  ... and %zu more regions\n", regions - shown);
+    fprintf(stderr,
+            "  gradient: grad f may vanish or turn by 90 degrees or more in the cell (a singular\n"
+            "  point of the surface, or an enclosure too wide: a larger --depth may certify it);\n"
+            "  sign: f's sign at a corner is not certified; face, loops: the surface crosses a\n"
+            "  face twice, or meets the cell in several pieces, at the max depth (mesh/README.md)\n");
+    free(parent);
+}
+
+/* The certified mesh, built before the outputs are written (its figures go into
+ * the stats): EXIT_OK, EXIT_UNCERTIFIED after listing the cells where the
+ * guarantee fails on stderr, or EXIT_RUNTIME. */
+static int certified_mesh(const build_job_t *job, double tree_bytes, msh_mesh_t *m,
+                          ivoct_error_t *err)
+{
+    const scene_t *s = job->scene;
+    msh_params_t p = mesh_params(job);
+    if (job->max_memory)
+        p.max_memory = tree_bytes < (double)job->max_memory
+                           ? job->max_memory - (size_t)tree_bytes : 1;
+    iv_box_t box = {{s->box[0], s->box[1]}, {s->box[2], s->box[3]}, {s->box[4], s->box[5]}};
+    cli_test_pause("mesh-certified");
+    int rc = msh_build(s->tape, &box, &p, m, err);
+    if (rc < 0)
+        return EXIT_RUNTIME;
+    if (rc == 0)
+        return EXIT_OK;
+    report_failures(m, p.max_depth);
+    ivoct_error_set(err, "--mesh-certified: not certified (regions listed above); nothing written");
+    return EXIT_UNCERTIFIED;
 }
 
 /* The .ivo and the exports write their files themselves (through io_open and
@@ -122,8 +264,25 @@ static int reserve(io_group_t *g, const char *step, const char *path, const char
     return io_group_reserve(g, path, tmp, err);
 }
 
+/* The certified mesh, with the depth of each triangle's cell (a .vtp cell array). */
+static int write_certified_mesh(const scene_t *s, const msh_mesh_t *m, const char *path,
+                                ivoct_error_t *err)
+{
+    int *depth = malloc((m->n_tris ? m->n_tris : 1) * sizeof *depth);
+    if (!depth) {
+        ivoct_error_set(err, "cannot write %s: out of memory", path);
+        return -1;
+    }
+    for (size_t i = 0; i < m->n_tris; i++)
+        depth[i] = m->cell_depth[m->tri_cell[i]];
+    int rc = exp_mesh_write(m->points, m->n_points, m->tris, depth, m->n_tris, &s->source, path,
+                            err);
+    free(depth);
+    return rc;
+}
+
 static int write_exports(const scene_t *s, const oct_tree_t *t, const exports_t *ex,
-                         io_group_t *g, ivoct_error_t *err)
+                         const msh_mesh_t *mesh, io_group_t *g, ivoct_error_t *err)
 {
     const char *tmp;
     int rc = 0;
@@ -135,6 +294,8 @@ static int write_exports(const scene_t *s, const oct_tree_t *t, const exports_t 
         rc = exp_vdb(t, s->tape, &s->source, tmp, err);
     if (!rc && ex->mesh && !(rc = reserve(g, "mesh", ex->mesh, &tmp, err)))
         rc = exp_mesh(t, s->tape, &s->source, tmp, err);
+    if (!rc && mesh && !(rc = reserve(g, "mesh-certified-write", ex->mesh_certified, &tmp, err)))
+        rc = write_certified_mesh(s, mesh, tmp, err);
     if (rc)
         io_group_rename_error(g, err);
     return rc ? -1 : 0;
@@ -247,20 +408,30 @@ int build_write_outputs(const build_job_t *job, const oct_tree_t *tree, io_group
     size_t max_memory = job->max_memory;
     if (max_memory && build_check_export_memory(tree, cells, save, ex, max_memory, err))
         return EXIT_RUNTIME;
+    msh_mesh_t mesh = {0};
+    msh_params_t mp = mesh_params(job);
+    int rc = ex->mesh_certified ? certified_mesh(job, tree_bytes(tree), &mesh, err) : EXIT_OK;
+    const msh_mesh_t *m = ex->mesh_certified ? &mesh : NULL;
+    if (rc)
+        goto done;
+    rc = EXIT_RUNTIME;
     if (cells)
         cli_test_pause("cells");
     if (cells &&
         write_cells(tree, g, cells, build_cells_threads(tree, job->threads, max_memory), err))
-        return EXIT_RUNTIME;
+        goto done;
     if (save && write_save(s, tree, g, save, err))
-        return EXIT_RUNTIME;
+        goto done;
     if (stats)
         cli_test_pause("stats");
-    if (stats && write_stats(s, tree, job->certain, g, stats, extra, err))
-        return EXIT_RUNTIME;
-    if (write_exports(s, tree, ex, g, err))
-        return EXIT_RUNTIME;
-    return EXIT_OK;
+    if (stats && write_stats(s, tree, job->certain, g, stats, m, &mp, extra, err))
+        goto done;
+    if (write_exports(s, tree, ex, m, g, err))
+        goto done;
+    rc = EXIT_OK;
+done:
+    msh_free(&mesh);
+    return rc;
 }
 
 /* ---- options ------------------------------------------------------------------------ */
@@ -289,10 +460,10 @@ static int parse_refine(const char *opt, const char *value, void *target, char *
 
 int cmd_build(int argc, char **argv)
 {
-    exports_t ex = {0};
+    exports_t ex = {.mesh_min_depth = -1};
     const char *scene_path = NULL, *cells = NULL, *save = NULL, *stats = NULL;
     unsigned tests = 0;
-    long depth = -1, threads = 0;
+    long depth = -1, threads = 0, mesh_min_depth = -1;
     double refine = -1;
     size_t max_memory = 0;
     bool quiet = false, tests_given = false, certain = false;
@@ -339,6 +510,20 @@ int cmd_build(int argc, char **argv)
         {.name = "--mesh", .kind = CLI_STRING, .target = &ex.mesh, .arg = "F",
          .help = "a triangle mesh of the surface (OpenVDB volumeToMesh of sdf);\n"
                  "the format follows the name: .vtp, .ply or .obj"},
+        {.name = "--mesh-certified", .kind = CLI_STRING, .target = &ex.mesh_certified,
+         .arg = "F",
+         .help = "a triangle mesh with certified topology (Plantinga-Vegter):\n"
+                 "embedded, and isotopic to the surface in the box where f is\n"
+                 "C^1 and the surface regular; vertices on the surface to a\n"
+                 "double's precision.  Cells down to --depth (at most "
+                 CLI_STR(MSH_MAX_DEPTH) "); where\n"
+                 "the guarantee fails there the cells are listed, nothing is\n"
+                 "written and the exit status is 3 (mesh/README.md).\n"
+                 ".vtp, .ply or .obj, with double-precision points"},
+        {.name = "--mesh-min-depth", .kind = CLI_INT, .target = &mesh_min_depth, .lo = 0,
+         .hi = MSH_MAX_DEPTH, .arg = "N",
+         .help = "the certified mesh's cells are split at least to depth N\n"
+                 "(a finer mesh; default: --depth - 2)"},
         {.name = "--certain", .kind = CLI_FLAG, .target = &certain,
          .help = "after the build, prove which surface leaves surely hold\n"
                  "surface (f continuous on the leaf, and a certified sign\n"
@@ -357,8 +542,6 @@ int cmd_build(int argc, char **argv)
         return rc;
     if (!scene_path)
         return cli_usage_error("build", "missing the scene file");
-    if (check_exports(&ex))
-        return EXIT_USAGE;
 
     scene_t s;
     ivoct_error_t err;
@@ -382,6 +565,10 @@ int cmd_build(int argc, char **argv)
         rc = cli_usage_error("build", "%s%s", err.msg, ilie ? " (--tests interval,lipschitz,ilie)" : "");
         goto out;
     }
+
+    ex.mesh_min_depth = (int)mesh_min_depth;
+    if ((rc = check_exports(&ex, p.depth)))
+        goto out;
 
     cli_progress_t prog = {"building", omp_get_wtime(), 0, 0, 1};
     /* slabs are read by the CSV, the .vtu (normals, error bounds) and

@@ -84,8 +84,9 @@ void write_ply(const Mesh &m, const oct_source_t *src, const char *path)
     std::string header = "ply\nformat binary_little_endian 1.0\ncomment written by ivoct\n";
     if (src && src->name && !std::strpbrk(src->name, "\r\n"))
         header += std::string("comment scene ") + src->name + "\n";
-    header += "element vertex " + std::to_string(nv) +
-              "\nproperty float x\nproperty float y\nproperty float z\n"
+    const char *type = m.doubles ? "double" : "float";
+    header += "element vertex " + std::to_string(nv) + "\nproperty " + type + " x\nproperty " +
+              type + " y\nproperty " + type + " z\n"
               "element face " + std::to_string(nt) +
               "\nproperty list uchar int vertex_indices\nend_header\n";
     out.write(header.data(), header.size());
@@ -96,11 +97,20 @@ void write_ply(const Mesh &m, const oct_source_t *src, const char *path)
         buf.clear();
     };
     for (size_t i = 0; i < 3 * nv; i++) {
-        uint32_t bits;
-        std::memcpy(&bits, &m.points[i], 4);
-        unsigned char b[4];
-        put_u32le(b, bits);
-        buf.insert(buf.end(), b, b + 4);
+        unsigned char b[8];
+        if (m.doubles) {
+            uint64_t bits;
+            std::memcpy(&bits, &m.points[i], 8);
+            put_u32le(b, (uint32_t)bits);
+            put_u32le(b + 4, (uint32_t)(bits >> 32));
+            buf.insert(buf.end(), b, b + 8);
+        } else {
+            float x = (float)m.points[i];
+            uint32_t bits;
+            std::memcpy(&bits, &x, 4);
+            put_u32le(b, bits);
+            buf.insert(buf.end(), b, b + 4);
+        }
         if (buf.size() >= 4096 * 12)
             flush();
     }
@@ -124,9 +134,9 @@ void write_obj(const Mesh &m, const oct_source_t *src, const char *path)
     std::fprintf(f, "# written by ivoct\n");
     if (src && src->name && !std::strpbrk(src->name, "\r\n"))
         std::fprintf(f, "# scene %s\n", src->name);
+    const char *fmt = m.doubles ? "v %.17g %.17g %.17g\n" : "v %.9g %.9g %.9g\n";
     for (size_t i = 0; i + 2 < m.points.size(); i += 3)
-        std::fprintf(f, "v %.9g %.9g %.9g\n", (double)m.points[i], (double)m.points[i + 1],
-                     (double)m.points[i + 2]);
+        std::fprintf(f, fmt, m.points[i], m.points[i + 1], m.points[i + 2]);
     for (size_t t = 0; t + 2 < m.tris.size(); t += 3)
         std::fprintf(f, "f %lu %lu %lu\n", (unsigned long)m.tris[t] + 1,
                      (unsigned long)m.tris[t + 1] + 1, (unsigned long)m.tris[t + 2] + 1);
@@ -486,21 +496,39 @@ int exp_mesh_supported(const char *path)
     return !strcasecmp(e, ".vtp") || !strcasecmp(e, ".ply") || !strcasecmp(e, ".obj");
 }
 
+// Write m in the format of path's extension.
+void write_mesh(const Mesh &m, const oct_source_t *src, const char *path)
+{
+    const char *e = extension(path);
+    if (!exp_mesh_supported(path))
+        throw Error(std::string("cannot write ") + path +
+                    ": unknown mesh format (the name must end in .vtp, .ply or .obj)");
+    if (!strcasecmp(e, ".vtp"))
+        vtk_write_vtp(m, src, path);
+    else if (!strcasecmp(e, ".ply"))
+        write_ply(m, src, path);
+    else
+        write_obj(m, src, path);
+}
+
 int exp_mesh(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
              const char *path, ivoct_error_t *err)
 {
+    return guard(err, [&] { write_mesh(vdb_mesh(tree, tape), src, path); });
+}
+
+int exp_mesh_write(const double *points, size_t n_points, const uint32_t *tris,
+                   const int *tri_depth, size_t n_tris, const oct_source_t *src, const char *path,
+                   ivoct_error_t *err)
+{
     return guard(err, [&] {
-        const char *e = extension(path);
-        if (!exp_mesh_supported(path))
-            throw Error(std::string("cannot write ") + path +
-                        ": unknown mesh format (the name must end in .vtp, .ply or .obj)");
-        Mesh m = vdb_mesh(tree, tape);
-        if (!strcasecmp(e, ".vtp"))
-            vtk_write_vtp(m, src, path);
-        else if (!strcasecmp(e, ".ply"))
-            write_ply(m, src, path);
-        else
-            write_obj(m, src, path);
+        Mesh m;
+        m.doubles = true;
+        m.points.assign(points, points + 3 * n_points);
+        m.tris.assign(tris, tris + 3 * n_tris);
+        if (tri_depth)
+            m.tri_depth.assign(tri_depth, tri_depth + n_tris);
+        write_mesh(m, src, path);
     });
 }
 

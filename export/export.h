@@ -168,7 +168,17 @@ int exp_vdb(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
 int exp_mesh(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
              const char *path, ivoct_error_t *err);
 
-/* Is path's extension one exp_mesh writes? */
+/* A triangle mesh given by its points (x y z per vertex) and triangles (3
+ * indices each), written like exp_mesh but with double-precision points (.ply
+ * "property double", .obj 17 significant digits, .vtp Float64), and with
+ * tri_depth (may be NULL) as the .vtp cell array "depth".  For the certified
+ * mesh (mesh/mesh.h), whose vertices are on the surface to a double's
+ * precision. */
+int exp_mesh_write(const double *points, size_t n_points, const uint32_t *tris,
+                   const int *tri_depth, size_t n_tris, const oct_source_t *src, const char *path,
+                   ivoct_error_t *err);
+
+/* Is path's extension one exp_mesh and exp_mesh_write write? */
 int exp_mesh_supported(const char *path);
 
 /* Summarise a .vtu, .htg, .vtp or .vdb file, or a .pvtu or .phtg index with

@@ -64,8 +64,11 @@ private:
 
 // A triangle mesh in world coordinates, triangles facing outwards.
 struct Mesh {
-    std::vector<float> points;     // x y z per vertex
+    std::vector<double> points;    // x y z per vertex
     std::vector<uint32_t> tris;    // 3 vertex indices per triangle
+    std::vector<int> tri_depth;    // empty, or per triangle the depth of its cell (.vtp cell data)
+    bool doubles = false;          // write the points as doubles (else as floats: exact for
+                                   // OpenVDB's float points)
 };
 
 // The key=value pairs of the metadata, in a fixed order.

@@ -698,10 +698,21 @@ void vtk_write_htg_piece(const oct_tree_t *part, const tape_t *tape, const oct_s
 void vtk_write_vtp(const Mesh &mesh, const oct_source_t *src, const char *path)
 {
     const vtkIdType np = (vtkIdType)(mesh.points.size() / 3), nt = (vtkIdType)(mesh.tris.size() / 3);
-    vtkNew<vtkFloatArray> coords;
-    coords->SetNumberOfComponents(3);
-    coords->SetNumberOfTuples(np);
-    std::copy(mesh.points.begin(), mesh.points.end(), coords->GetPointer(0));
+    vtkSmartPointer<vtkDataArray> coords;
+    if (mesh.doubles) {
+        auto d = vtkSmartPointer<vtkDoubleArray>::New();
+        d->SetNumberOfComponents(3);
+        d->SetNumberOfTuples(np);
+        std::copy(mesh.points.begin(), mesh.points.end(), d->GetPointer(0));
+        coords = d;
+    } else {
+        auto f = vtkSmartPointer<vtkFloatArray>::New();
+        f->SetNumberOfComponents(3);
+        f->SetNumberOfTuples(np);
+        std::transform(mesh.points.begin(), mesh.points.end(), f->GetPointer(0),
+                       [](double x) { return (float)x; });
+        coords = f;
+    }
     vtkNew<vtkPoints> points;
     points->SetData(coords);
     vtkNew<vtkIdTypeArray> offsets, connectivity;
@@ -716,6 +727,13 @@ void vtk_write_vtp(const Mesh &mesh, const oct_source_t *src, const char *path)
     vtkNew<vtkPolyData> pd;
     pd->SetPoints(points);
     pd->SetPolys(polys);
+    if (!mesh.tri_depth.empty()) {
+        vtkNew<vtkIntArray> depth;
+        depth->SetName("depth");
+        depth->SetNumberOfValues(nt);
+        std::copy(mesh.tri_depth.begin(), mesh.tri_depth.end(), depth->GetPointer(0));
+        pd->GetCellData()->AddArray(depth);
+    }
     for (const MetaItem &m : meta_strings(src)) {
         vtkNew<vtkStringArray> a;
         a->SetName(m.key.c_str());

@@ -239,6 +239,7 @@ static int certified_mesh(const build_job_t *job, double tree_bytes, msh_mesh_t 
 {
     const scene_t *s = job->scene;
     msh_params_t p = mesh_params(job);
+    /* the budget left beside the octree, which stays allocated */
     if (job->max_memory)
         p.max_memory = tree_bytes < (double)job->max_memory
                            ? job->max_memory - (size_t)tree_bytes : 1;

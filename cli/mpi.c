@@ -864,8 +864,12 @@ int cli_mpi_build(const build_job_t *job, bool quiet)
         build_stats_extra_t extra = {write_mpi_stats, &fig};
         build_job_t rest = single;
         rest.stats = job->stats;
-        if (!tree) /* nothing of one file but the stats, which need no tree */
-            rest.cells = rest.save = NULL, rest.ex = (exports_t){0};
+        /* nothing of one file but the stats and the certified mesh, which need
+         * no tree (the mesh builds its own subdivision from the tape) */
+        if (!tree)
+            rest.cells = rest.save = NULL,
+            rest.ex = (exports_t){.mesh_certified = single.ex.mesh_certified,
+                                  .mesh_min_depth = single.ex.mesh_min_depth};
         rc = build_write_outputs(&rest, &sum, &g, &extra, &err);
     }
     if ((rc = cli_mpi_agree(rc ? (fprintf(stderr, "ivoct build: %s\n", err.msg), rc) : rc))) {

@@ -213,7 +213,8 @@ static int over_budget(ctx_t *c)
                c->cap_cellout * (sizeof(iv_box_t) + sizeof(int));
     if (b <= c->max_memory)
         return 0;
-    ivoct_error_set(c->err, "certified mesh: needs more than --max-memory (%zu bytes)",
+    ivoct_error_set(c->err,
+                    "certified mesh: memory budget of %zu bytes exceeded (raise --max-memory)",
                     c->max_memory);
     return -1;
 }

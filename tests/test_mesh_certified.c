@@ -325,7 +325,7 @@ static void test_parameters_refused(void **state)
     assert_non_null(strstr(err.msg, "box"));
     p.max_memory = 4096;
     assert_int_equal(msh_build(t, &box, &p, &m, &err), -1);
-    assert_non_null(strstr(err.msg, "max-memory"));
+    assert_non_null(strstr(err.msg, "memory budget"));
     assert_null(m.points);
     msh_free(&m); /* safe on the emptied mesh */
     tape_free(t);

@@ -10,6 +10,7 @@
 #  - a singular surface (chubs): exit 3, the failed cells listed on stderr in
 #    12 regions (one per singular point) with their reasons, and no output at all (neither the mesh nor the other
 #    outputs of the command);
+#  - a --max-memory too small for the mesh: exit 1, one line, nothing written;
 #  - usage errors: exit 2 and one line (a bad extension, a depth over 20,
 #    --mesh-min-depth alone or deeper than --depth); --help documents both
 #    options.
@@ -127,6 +128,12 @@ grep -q "not certified in .* in 12 regions" "$TMP/err" && ok ||
 [ "$(grep -cE '^  [0-9]+ cells? in \[.*\]: gradient [0-9]+$' "$TMP/err")" = 12 ] && ok ||
     fail "chubs: not 12 regions listed: $(cat "$TMP/err")"
 [ -z "$(ls "$TMP" | grep chubs)" ] && ok || fail "chubs: files left: $(ls "$TMP" | grep chubs)"
+
+# a memory budget too small for the mesh: exit 1, one line, nothing written
+run 1 "--max-memory" -- build "$SCENES/gumdrop.ini" --depth 8 --quiet --max-memory 20M \
+    --mesh-certified "$TMP/m.ply" --stats "$TMP/m.json"
+one_line_error "--max-memory" "memory budget" "--max-memory"
+[ -z "$(ls "$TMP" | grep '^m\.')" ] && ok || fail "--max-memory: files left: $(ls "$TMP")"
 
 # usage errors
 run 2 "bad extension" -- build "$SCENES/sphere.ini" --mesh-certified "$TMP/x.stl"

@@ -291,7 +291,7 @@ else
     fail "script (util-linux) and pgrep are needed for the terminal test"
 fi
 
-# ---- the OpenVDB exports, and render --------------------------------------------------------
+# ---- the OpenVDB exports, the certified mesh, and render ------------------------------------
 for step in vdb mesh commit; do
     start "$step" "" build "$SCENES/sphere.ini" --depth 5 --quiet --cells "$O.csv" --vdb "$O.vdb" \
         --mesh "$O.ply"
@@ -301,6 +301,19 @@ for step in vdb mesh commit; do
     [ "$RC" -eq 143 ] && ok || fail "SIGTERM at $step of the OpenVDB exports: exit $RC"
     left=$(find "$TMP/o" -mindepth 1 | head -5)
     [ -z "$left" ] && ok || fail "SIGTERM at $step of the OpenVDB exports: files left: $left"
+    rm -f "$TMP/o"/*
+done
+# the certified mesh: before it is computed (its figures go into the stats, so it
+# comes before every output) and before its file is written
+for step in mesh-certified mesh-certified-write commit; do
+    start "$step" "" build "$SCENES/sphere.ini" --depth 5 --quiet --cells "$O.csv" \
+        --stats "$O.json" --mesh-certified "$O.ply"
+    wait_for "ivoct: test pause at $step" && ok || fail "certified mesh: no pause at $step"
+    kill -HUP "$PID"
+    finish
+    [ "$RC" -eq 129 ] && ok || fail "SIGHUP at $step of the certified mesh: exit $RC"
+    left=$(find "$TMP/o" -mindepth 1 | head -5)
+    [ -z "$left" ] && ok || fail "SIGHUP at $step of the certified mesh: files left: $left"
     rm -f "$TMP/o"/*
 done
 R=$TMP/o/r

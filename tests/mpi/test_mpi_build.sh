@@ -145,6 +145,25 @@ for sc in gumdrop csg-64-spheres; do
     }
 done
 
+# --mesh-certified needs no tree (it subdivides on its own, from the tape, on rank 0): the
+# same file over 2 ranks as in one process, alone beside the stats (no tree gathered) and
+# with the gathered CSV
+run 0 "sphere --mesh-certified: single" -- build "$SCENES/sphere.ini" --depth $depth \
+    --mesh-certified "$W/one.ply" --quiet && {
+    for with in "" "--cells $W/m.csv"; do
+        rm -f "$W/m.ply"
+        # shellcheck disable=SC2086
+        mpirun_ivoct 2 0 "sphere --mesh-certified ${with:+with the CSV }: 2 ranks" -- build \
+            "$SCENES/sphere.ini" --depth $depth --mesh-certified "$W/m.ply" --stats "$W/m.json" \
+            $with --quiet && {
+            cmp -s "$W/one.ply" "$W/m.ply" && ok ||
+                fail "sphere --mesh-certified ${with:+with the CSV}, 2 ranks: the mesh differs"
+            [ "$(json_key "$W/m.json" "['mesh_certified']['certified']")" = True ] && ok ||
+                fail "sphere --mesh-certified, 2 ranks: no mesh_certified in the stats"
+        }
+    done
+}
+
 # --save F.pivo: one .ivo piece per rank and the index, which `ivoct info` and `ivoct render
 # --octree` read as the whole tree (tests/test_octree_pieces.c checks it leaf for leaf,
 # tests/mpi/test_mpi_render_tiles.sh renders from it): its summary is the single file's, the

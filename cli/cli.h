@@ -118,11 +118,20 @@ int build_check_export_memory(const struct oct_tree *t, const char *cells, const
                               const exports_t *ex, size_t budget, ivoct_error_t *err);
 int build_cells_threads(const struct oct_tree *t, int threads, size_t budget);
 
+/* What the summary line of the certified mesh prints. */
+typedef struct mesh_summary {
+    bool made;
+    size_t vertices, triangles, cells;
+    int min_depth, max_depth; /* of the cells holding triangles */
+    double seconds;
+} mesh_summary_t;
+
 /* Write every output of job for tree into g (not committed): EXIT_OK, or
- * EXIT_RUNTIME or EXIT_UNCERTIFIED with err set. */
+ * EXIT_RUNTIME or EXIT_UNCERTIFIED with err set.  mesh (may be NULL): the
+ * certified mesh's figures, for the summary. */
 int build_write_outputs(const build_job_t *job, const struct oct_tree *tree,
                         struct io_group *g, const build_stats_extra_t *extra,
-                        ivoct_error_t *err);
+                        mesh_summary_t *mesh, ivoct_error_t *err);
 
 /* ---- MPI (mpi.c, only in a build with IVOCT_MPI) -------------------------------------
  * Under mpirun (Open MPI's, or any that sets PMI/PMIx variables) main starts MPI

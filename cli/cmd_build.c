@@ -401,7 +401,8 @@ int build_check_export_memory(const oct_tree_t *t, const char *cells, const char
 /* Every output of the job but the commit: written into g (cmd_build, and
  * rank 0 of the build over MPI with the outputs that are one file). */
 int build_write_outputs(const build_job_t *job, const oct_tree_t *tree, io_group_t *g,
-                        const build_stats_extra_t *extra, ivoct_error_t *err)
+                        const build_stats_extra_t *extra, mesh_summary_t *summary,
+                        ivoct_error_t *err)
 {
     const scene_t *s = job->scene;
     const char *cells = job->cells, *save = job->save, *stats = job->stats;
@@ -430,6 +431,16 @@ int build_write_outputs(const build_job_t *job, const oct_tree_t *tree, io_group
     if (write_exports(s, tree, ex, m, g, err))
         goto done;
     rc = EXIT_OK;
+    if (summary && m) {
+        *summary = (mesh_summary_t){true, m->n_points, m->n_tris, m->n_cells, MSH_MAX_DEPTH, 0,
+                                    m->stats.seconds};
+        for (size_t i = 0; i < m->n_cells; i++) {
+            summary->min_depth = m->cell_depth[i] < summary->min_depth ? m->cell_depth[i]
+                                                                       : summary->min_depth;
+            summary->max_depth = m->cell_depth[i] > summary->max_depth ? m->cell_depth[i]
+                                                                       : summary->max_depth;
+        }
+    }
 done:
     msh_free(&mesh);
     return rc;
@@ -605,7 +616,8 @@ int cmd_build(int argc, char **argv)
     /* every output goes to a temporary name; all are renamed at the end, and
      * only when all were written (the commit group) */
     io_group_t g = IO_GROUP_INIT;
-    rc = build_write_outputs(&job, tree, &g, NULL, &err);
+    mesh_summary_t mesh = {0};
+    rc = build_write_outputs(&job, tree, &g, NULL, &mesh, &err);
     if (rc == EXIT_OK) {
         cli_test_pause("commit");
         if (io_group_commit(&g, &err))
@@ -627,6 +639,11 @@ int cmd_build(int argc, char **argv)
                    (unsigned long long)tree->stats.leaves_certain, tree->n_leaves,
                    tree->n_leaves ? 100.0 * (double)tree->stats.leaves_certain / tree->n_leaves : 0.0,
                    tree->stats.certain_time_s);
+        if (mesh.made)
+            printf("certified mesh: %zu vertices, %zu triangles in %zu cells of depth %d to %d, "
+                   "%.3f s\n",
+                   mesh.vertices, mesh.triangles, mesh.cells, mesh.min_depth, mesh.max_depth,
+                   mesh.seconds);
     }
     oct_free(tree);
 out:

@@ -870,7 +870,7 @@ int cli_mpi_build(const build_job_t *job, bool quiet)
             rest.cells = rest.save = NULL,
             rest.ex = (exports_t){.mesh_certified = single.ex.mesh_certified,
                                   .mesh_min_depth = single.ex.mesh_min_depth};
-        rc = build_write_outputs(&rest, &sum, &g, &extra, &err);
+        rc = build_write_outputs(&rest, &sum, &g, &extra, NULL, &err);
     }
     if ((rc = cli_mpi_agree(rc ? (fprintf(stderr, "ivoct build: %s\n", err.msg), rc) : rc))) {
         io_group_abort(&g);

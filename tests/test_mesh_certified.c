@@ -14,6 +14,10 @@
  *  - Singular surfaces (chubs: 12 singular points) are not certified:
  *    msh_build returns 1, the failed cells all lie near the singular points
  *    and every singular point has failed cells next to it.
+ *  - Every scene file: msh_build certifies it or lists failures; a certified
+ *    mesh is an embedded, consistently oriented manifold whose boundary edges
+ *    (if any) lie on the faces of the mesh box, and when closed it has the
+ *    Euler characteristic of the sampled solid (the tangle cube's genus 5 too).
  *  - The same mesh, bit for bit, on every SIMD path; cells never coarser
  *    than min_depth; bad parameters and a tiny memory budget are refused. */
 #include <math.h>
@@ -30,6 +34,7 @@
 
 #include "expr/tape.h"
 #include "mesh/mesh.h"
+#include "scene/scene.h"
 #include "mesh_check.h"
 #include "mpfi_tape.h"
 #include "testutil.h"
@@ -219,6 +224,93 @@ static void test_regular_surfaces(void **state)
         check_regular(&regular[i]);
 }
 
+static int cmp_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* Is p on a face of box (a boundary edge of a mesh may only lie there)? */
+static int on_box_face(const iv_box_t *box, const double *p)
+{
+    const iv_t *r = &box->x;
+    for (int a = 0; a < 3; a++)
+        if (p[a] == r[a].lo || p[a] == r[a].hi)
+            return 1;
+    return 0;
+}
+
+static void test_every_scene(void **state)
+{
+    (void)state;
+    char **paths;
+    int n = tu_scene_files(&paths), certified = 0;
+    int depth = tu_sanitizer_build() ? 6 : 7;
+    for (int i = 0; i < n; i++) {
+        scene_t s;
+        tu_load_scene(paths[i], &s);
+        iv_box_t box = {{s.box[0], s.box[1]}, {s.box[2], s.box[3]}, {s.box[4], s.box[5]}};
+        msh_params_t p = {depth, depth - 2, 0};
+        msh_mesh_t m;
+        ivoct_error_t err;
+        int rc = msh_build(s.tape, &box, &p, &m, &err);
+        if (rc < 0)
+            fail_msg("%s: %s", paths[i], err.msg);
+        if (rc == 1) {
+            assert_true(m.n_failures > 0);
+        } else {
+            certified++;
+            mc_report_t r;
+            assert_int_equal(mc_check(m.points, m.n_points, m.tris, m.n_tris, 1, &r), 0);
+            if (r.nonmanifold_edges || r.nonmanifold_vertices || r.misoriented_edges ||
+                r.degenerate_triangles || r.intersecting_pairs || r.coincident_vertices)
+                fail_msg("%s: non-manifold %zu/%zu, misoriented %zu, degenerate %zu, "
+                         "intersecting %zu, coincident %zu", paths[i], r.nonmanifold_edges,
+                         r.nonmanifold_vertices, r.misoriented_edges, r.degenerate_triangles,
+                         r.intersecting_pairs, r.coincident_vertices);
+            /* an edge in one triangle only: both its ends on the box's faces */
+            size_t stray = 0;
+            if (r.boundary_edges) {
+                size_t ne = 3 * m.n_tris;
+                uint64_t *e = malloc(ne * sizeof *e);
+                assert_non_null(e);
+                for (size_t t = 0; t < m.n_tris; t++)
+                    for (int k = 0; k < 3; k++) {
+                        uint64_t a = m.tris[3 * t + k], b = m.tris[3 * t + (k + 1) % 3];
+                        e[3 * t + k] = a < b ? a << 32 | b : b << 32 | a;
+                    }
+                qsort(e, ne, sizeof *e, cmp_u64);
+                for (size_t j = 0; j < ne;) {
+                    size_t k = j;
+                    while (k < ne && e[k] == e[j])
+                        k++;
+                    if (k - j == 1 && !(on_box_face(&m.box, m.points + 3 * (e[j] >> 32)) &&
+                                        on_box_face(&m.box, m.points + 3 * (e[j] & 0xffffffffu))))
+                        stray++;
+                    j = k;
+                }
+                free(e);
+            } else {
+                const iv_t *mb = &m.box.x;
+                double mbox[6] = {mb[0].lo, mb[0].hi, mb[1].lo, mb[1].hi, mb[2].lo, mb[2].hi};
+                long sampled = 2 * solid_euler(s.tape, mbox, tu_sanitizer_build() ? 128 : 160);
+                if (r.euler != sampled)
+                    fail_msg("%s: Euler characteristic %ld, the sampled solid's boundary %ld",
+                             paths[i], r.euler, sampled);
+                if (strstr(paths[i], "tangle-cube"))
+                    assert_int_equal(r.euler, 2 - 2 * 5); /* genus 5 */
+            }
+            if (stray)
+                fail_msg("%s: %zu boundary edges off the box's faces", paths[i], stray);
+        }
+        msh_free(&m);
+        scene_free(&s);
+    }
+    tu_free_list(paths, n);
+    /* sphere, offset sphere, tiny sphere, param-sphere, McMullen K3, tangle cube, blobs */
+    assert_true(certified >= 7);
+}
+
 /* chubs: 12 singular points, (+-1/sqrt2, +-1/sqrt2, 0) and permutations */
 static void test_singular_surface_reported(void **state)
 {
@@ -364,6 +456,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_regular_surfaces),
         cmocka_unit_test(test_singular_surface_reported),
+        cmocka_unit_test(test_every_scene),
         cmocka_unit_test(test_same_mesh_every_path),
         cmocka_unit_test(test_parameters_refused),
         cmocka_unit_test(test_mesh_box_and_min_depth),

@@ -129,8 +129,8 @@ static int reserve(void *pp, size_t *cap, size_t n, size_t extra, size_t sz)
 
 /* ---- the context -------------------------------------------------------------------- */
 
-/* Sign of f at a grid point: + (f > 0, or f exactly 0: the symbolic perturbation
- * f + 0 counts zeros as positive), - (f < 0), or not certified. */
+/* Sign of f at a point: + (f > 0, or f exactly 0, which counts as positive: a
+ * symbolic perturbation, mesh/README.md), - (f < 0), or not certified. */
 enum { S_UNKNOWN = 2, S_POS = 1, S_NEG = -1, S_UNCERTAIN = 0 };
 
 typedef struct vinfo {
@@ -393,9 +393,8 @@ static int subdivide(ctx_t *c)
         free(ids);
         size_t next = c->n_cells;
         for (size_t i = begin; i < end; i++)
-            if (c->cells[i].kind == K_OPEN && split(c, (int32_t)i)) {
+            if (c->cells[i].kind == K_OPEN && split(c, (int32_t)i))
                 return -1;
-            }
         begin = next;
         end = c->n_cells;
     }

@@ -303,8 +303,9 @@ static iv_t mean_value(const iv_grad_t *g, const iv_box_t *box, iv_t fm, const i
 }
 
 /* Classify the K_OPEN cells ids[0..n): empty, surface, unresolved (at the max
- * depth), or left K_OPEN to be split.  Batches of TAPE_BATCH boxes. */
-static void classify(ctx_t *c, const int32_t *ids, size_t n)
+ * depth), or left K_OPEN to be split; coarse (above min_depth): empty or left
+ * to be split.  Batches of TAPE_BATCH boxes. */
+static void classify(ctx_t *c, const int32_t *ids, size_t n, bool coarse)
 {
     iv_box_t box[TAPE_BATCH];
     iv_t f[TAPE_BATCH];
@@ -324,8 +325,8 @@ static void classify(ctx_t *c, const int32_t *ids, size_t n)
                 box[k++] = box[i];
             }
         }
-        if (!k)
-            continue;
+        if (!k || coarse)
+            continue; /* above min_depth the cells that may hold surface are split */
         tape_eval_grad(c->t, c->ws, k, box, g);
         /* f at the centres, for the mean value form */
         iv_box_t ctr[TAPE_BATCH];
@@ -388,8 +389,7 @@ static int subdivide(ctx_t *c)
             return nomem(c);
         for (size_t i = begin; i < end; i++)
             ids[i - begin] = (int32_t)i;
-        if (l >= c->min_depth)
-            classify(c, ids, end - begin);
+        classify(c, ids, end - begin, l < c->min_depth);
         free(ids);
         size_t next = c->n_cells;
         for (size_t i = begin; i < end; i++)
@@ -473,9 +473,10 @@ static int sign_of(iv_t f)
     return S_UNCERTAIN; /* straddles 0, or f undefined there */
 }
 
-/* Certified signs of f at the n points p (x y z each) into s: TAPE_BATCH
- * points per pass over the tape. */
-static void point_signs(ctx_t *c, size_t n, const double *p, int8_t *s)
+/* Certified signs of f at the n points p (x y z each) into s, and (v not
+ * NULL) the midpoints of the enclosures, approximations of f there, into v:
+ * TAPE_BATCH points per pass over the tape. */
+static void point_values(ctx_t *c, size_t n, const double *p, int8_t *s, double *v)
 {
     iv_box_t b[TAPE_BATCH];
     iv_t f[TAPE_BATCH];
@@ -486,10 +487,18 @@ static void point_signs(ctx_t *c, size_t n, const double *p, int8_t *s)
             b[i].x = iv_point(q[0]), b[i].y = iv_point(q[1]), b[i].z = iv_point(q[2]);
         }
         tape_eval_interval(c->t, c->ws, m, b, f);
-        for (size_t i = 0; i < m; i++)
+        for (size_t i = 0; i < m; i++) {
             s[i0 + i] = (int8_t)sign_of(f[i]);
+            if (v)
+                v[i0 + i] = iv_mid(f[i]);
+        }
     }
     c->out->stats.sign_evaluations += n;
+}
+
+static void point_signs(ctx_t *c, size_t n, const double *p, int8_t *s)
+{
+    point_values(c, n, p, s, NULL);
 }
 
 static int point_sign(ctx_t *c, const double p[3])
@@ -507,54 +516,95 @@ typedef struct bracket {
     uint8_t lo_moved;
 } bracket_t;
 
+/* After this many steps a bracket is halved, no longer cut where the secant
+ * through the ends' values meets 0: halving reaches adjacent doubles in at
+ * most ~1100 more steps for any bracket, and in ~55 for the ones here. */
+#define SECANT_STEPS 32
+
 /* Shrink every bracket onto its sign change, all together (one batched
- * evaluation per halving): until the midpoint of a bracket equals one of its
- * ends in every coordinate (adjacent doubles), or the enclosure of f there
- * holds 0 (lo is then moved to it: f is 0 there up to the evaluation's
- * rounding).  Every point between the ends of a bracket stays between them.
- * -1 when out of memory. */
+ * evaluation per step): each step cuts a bracket where the secant through the
+ * approximate values of f at its ends meets 0 (the Illinois variant of
+ * regula falsi: an end kept twice in a row has its value halved, so both ends
+ * move), a point strictly between the ends, whose certified sign says which
+ * end it replaces; until the enclosure of f there holds 0 (lo is then moved to
+ * it: f is 0 there up to the evaluation's rounding) or the bracket's ends are
+ * adjacent doubles.  Every point between the ends of a bracket stays between
+ * them, coordinate by coordinate.  -1 when out of memory. */
 static int bisect_all(ctx_t *c, bracket_t *br, size_t n)
 {
-    size_t *act = malloc((n ? n : 1) * sizeof *act);
-    double *mid = malloc((n ? n : 1) * 3 * sizeof *mid);
-    int8_t *sg = malloc(n ? n : 1);
-    if (!act || !mid || !sg) {
-        free(act), free(mid), free(sg);
+    if (!n)
+        return 0;
+    size_t *act = malloc(n * sizeof *act);
+    double *x = malloc(2 * n * 3 * sizeof *x), *v = malloc(2 * n * sizeof *v);
+    double *f_lo = malloc(n * sizeof *f_lo), *f_hi = malloc(n * sizeof *f_hi);
+    int8_t *sg = malloc(2 * n), *kept = calloc(n, 1);
+    if (!act || !x || !v || !f_lo || !f_hi || !sg || !kept) {
+        free(act), free(x), free(v), free(f_lo), free(f_hi), free(sg), free(kept);
         return nomem(c);
     }
-    size_t na = n;
-    for (size_t i = 0; i < n; i++)
+    /* the values at the ends, for the secants (their signs are known) */
+    for (size_t i = 0; i < n; i++) {
+        memcpy(x + 6 * i, br[i].lo, sizeof br[i].lo);
+        memcpy(x + 6 * i + 3, br[i].hi, sizeof br[i].hi);
+    }
+    point_values(c, 2 * n, x, sg, v);
+    for (size_t i = 0; i < n; i++) {
+        f_lo[i] = v[2 * i], f_hi[i] = v[2 * i + 1];
         act[i] = i;
-    while (na) {
+    }
+    size_t na = n;
+    for (int step = 0; na; step++) {
         size_t k = 0;
         for (size_t j = 0; j < na; j++) {
-            bracket_t *b = &br[act[j]];
-            int moved = 0;
-            for (int a = 0; a < 3; a++) {
-                double m = 0.5 * b->lo[a] + 0.5 * b->hi[a];
-                moved |= m != b->lo[a] && m != b->hi[a];
-                mid[3 * k + a] = m;
-            }
-            if (moved)
-                act[k++] = act[j];
+            size_t i = act[j];
+            bracket_t *b = &br[i];
+            /* where the secant meets 0, if the values are of opposite signs
+             * (they are approximations: near 0 they may not be) */
+            double t = 0.5;
+            if (step < SECANT_STEPS && f_lo[i] * f_hi[i] < 0)
+                t = f_lo[i] / (f_lo[i] - f_hi[i]);
+            int inside = 0, tries = 0;
+            do {
+                inside = 0;
+                for (int a = 0; a < 3; a++) {
+                    double p = b->lo[a] + t * (b->hi[a] - b->lo[a]);
+                    /* between the ends even when rounded past one */
+                    double lo = fmin(b->lo[a], b->hi[a]), hi = fmax(b->lo[a], b->hi[a]);
+                    p = fmin(fmax(p, lo), hi);
+                    inside |= p != b->lo[a] && p != b->hi[a];
+                    x[3 * k + a] = p;
+                }
+                t = 0.5; /* the secant's point is an end: halve instead */
+            } while (!inside && ++tries < 2);
+            if (inside)
+                act[k++] = i;
         }
         na = k;
-        point_signs(c, na, mid, sg);
+        point_values(c, na, x, sg, v);
         k = 0;
         for (size_t j = 0; j < na; j++) {
-            bracket_t *b = &br[act[j]];
+            size_t i = act[j];
+            bracket_t *b = &br[i];
             if (sg[j] == S_UNCERTAIN || sg[j] == b->s_lo) {
-                memcpy(b->lo, mid + 3 * j, sizeof b->lo);
+                memcpy(b->lo, x + 3 * j, sizeof b->lo);
                 b->lo_moved = 1;
+                f_lo[i] = v[j];
+                if (kept[i] == 2) /* hi kept twice */
+                    f_hi[i] *= 0.5;
+                kept[i] = 2;
             } else {
-                memcpy(b->hi, mid + 3 * j, sizeof b->hi);
+                memcpy(b->hi, x + 3 * j, sizeof b->hi);
+                f_hi[i] = v[j];
+                if (kept[i] == 1) /* lo kept twice */
+                    f_lo[i] *= 0.5;
+                kept[i] = 1;
             }
             if (sg[j] != S_UNCERTAIN)
-                act[k++] = act[j];
+                act[k++] = i;
         }
         na = k;
     }
-    free(act), free(mid), free(sg);
+    free(act), free(x), free(v), free(f_lo), free(f_hi), free(sg), free(kept);
     return 0;
 }
 

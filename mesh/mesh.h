@@ -19,10 +19,10 @@
  *    where the gradient condition holds, so a singular point is never in a
  *    certified cell);
  *  - every vertex lies in the cell that made it, and on the surface to the
- *    precision of a double: a corner of a cell edge where f changes sign is
- *    bisected with certified signs down to adjacent doubles (or to a point
- *    where the interval of f holds 0); the apex of each cell's fan is found
- *    the same way on a line along d (stats.apex_off_surface counts the rare
+ *    precision of a double: where f changes sign along a cell edge, the
+ *    bracket is cut with certified signs (regula falsi, Illinois) down to
+ *    adjacent doubles or to a point where the interval of f holds 0; the apex
+ *    of each cell's fan is found the same way on a line along d (stats.apex_off_surface counts the rare
  *    apexes that could not be, at the max depth);
  *  - triangles face the side where f > 0.
  * Where a cell cannot be certified (at the max depth the gradient condition

@@ -1,6 +1,6 @@
-// ivoct export/ — the VTK side: .vtu (surface leaves as voxels), .htg (the
-// whole octree as a HyperTreeGrid), .vtp meshes, and reading them back for
-// `ivoct info`.
+// ivoct export/ — the VTK side: .vtu (surface leaves as voxels), .vtp meshes,
+// and reading them back (.htg and .phtg too) for `ivoct info`.  The .htg
+// itself is written by htg_xml.cpp, without VTK's writer.
 //
 // VTK writers are asked for a string (WriteToOutputString) which goes to the
 // file through io/io.h: one path for temporary names, devices and errors.
@@ -22,7 +22,6 @@
 #include <vtkFloatArray.h>
 #include <vtkHyperTree.h>
 #include <vtkHyperTreeGrid.h>
-#include <vtkHyperTreeGridNonOrientedCursor.h>
 #include <vtkIdTypeArray.h>
 #include <vtkIntArray.h>
 #include <vtkLogger.h>
@@ -37,7 +36,6 @@
 #include <vtkUnsignedCharArray.h>
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLHyperTreeGridReader.h>
-#include <vtkXMLHyperTreeGridWriter.h>
 #include <vtkXMLPHyperTreeGridReader.h>
 #include <vtkXMLPUnstructuredGridReader.h>
 #include <vtkXMLPolyDataReader.h>
@@ -138,10 +136,7 @@ private:
 };
 
 // ---- helpers --------------------------------------------------------------------------
-iv_box_t cell_box(const oct_tree_t *t, int depth, uint32_t ix, uint32_t iy, uint32_t iz)
-{
-    return oct_cell_box(t->box, depth, ix, iy, iz);
-}
+enum { CLASS_SURFACE = 3 };  // the .htg's class of a surface leaf (htg_xml.cpp)
 
 void add_field_data(vtkFieldData *fd, const oct_tree_t *tree, const oct_source_t *src)
 {
@@ -426,273 +421,7 @@ void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *
     write_xml(w.Get(), ug, path);
 }
 
-// ---- .htg -----------------------------------------------------------------------------
-namespace {
-
-enum { CLASS_SURFACE = 3, CLASS_SPLIT = 4 };
-
-struct HtgNode {
-    uint32_t node;  // index in tree->nodes
-    uint8_t depth;
-    uint32_t ix, iy, iz;
-};
-
-// Mirrors the octree below one node into the hyper tree under the cursor,
-// recording for each new vertex (by global index) which node it is.
-struct HtgBuilder {
-    const oct_tree_t *tree;
-    std::vector<HtgNode> &out;
-    std::vector<uint8_t> &surface;
-
-    bool visit(vtkHyperTreeGridNonOrientedCursor *cur, const HtgNode &n)
-    {
-        vtkIdType id = cur->GetGlobalNodeIndex();
-        if ((size_t)id >= out.size()) {
-            out.resize((size_t)id + 1);
-            surface.resize((size_t)id + 1);
-        }
-        out[(size_t)id] = n;
-        oct_node_t w = tree->nodes[n.node];
-        bool has_surface = OCT_NODE_KIND(w) == OCT_LEAF;
-        if (OCT_NODE_KIND(w) == OCT_INTERIOR) {
-            uint32_t first = OCT_NODE_VALUE(w);
-            cur->SubdivideLeaf();
-            for (unsigned c = 0; c < 8; c++) {
-                cur->ToChild((unsigned char)c);
-                HtgNode child = {first + c, (uint8_t)(n.depth + 1), 2 * n.ix + (c & 1),
-                                 2 * n.iy + (c >> 1 & 1), 2 * n.iz + (c >> 2 & 1)};
-                has_surface = visit(cur, child) || has_surface;
-                cur->ToParent();
-            }
-        }
-        surface[(size_t)id] = has_surface;
-        return has_surface;
-    }
-};
-
-// The HyperTreeGrid of the subtrees of `tree` below `roots`, cells of depth g:
-// a grid of 2^g x 2^g x 2^g trees (their bounds oct_coord at depth g), a tree at
-// each root's cell, numbered in the order of `roots`; every node a cell, with
-// the cell data and field data of exp_htg.  `piece`: a piece of a .phtg, in
-// the file format VTK's parallel reader reads right (0.0).
-void write_htg_trees(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src, int g,
-                     const std::vector<HtgNode> &roots, bool piece, const char *path)
-{
-    vtkNew<vtkHyperTreeGrid> htg;
-    htg->SetBranchFactor(2);
-    const uint64_t cells = (uint64_t)1 << g;
-    htg->SetDimensions((unsigned)cells + 1, (unsigned)cells + 1, (unsigned)cells + 1);
-    for (int axis = 0; axis < 3; axis++) {
-        vtkNew<vtkDoubleArray> c;
-        c->SetNumberOfValues((vtkIdType)cells + 1);
-        for (uint64_t i = 0; i <= cells; i++)
-            c->SetValue((vtkIdType)i,
-                        oct_coord(tree->box[2 * axis], tree->box[2 * axis + 1], i, g));
-        if (axis == 0)
-            htg->SetXCoordinates(c);
-        else if (axis == 1)
-            htg->SetYCoordinates(c);
-        else
-            htg->SetZCoordinates(c);
-    }
-
-    std::vector<HtgNode> nodes;
-    std::vector<uint8_t> surface;
-    nodes.reserve(tree->n_nodes);
-    surface.reserve(tree->n_nodes);
-    HtgBuilder b{tree, nodes, surface};
-    vtkNew<vtkHyperTreeGridNonOrientedCursor> cur;
-    vtkIdType start = 0;
-    for (const HtgNode &root : roots) {
-        vtkIdType treeId;
-        htg->GetIndexFromLevelZeroCoordinates(treeId, root.ix, root.iy, root.iz);
-        htg->InitializeNonOrientedCursor(cur, treeId, true);
-        cur->SetGlobalIndexStart(start);
-        b.visit(cur, root);
-        start += cur->GetTree()->GetNumberOfVertices();
-    }
-    const size_t total = (size_t)start;
-    if (nodes.size() != total)
-        throw Error("HyperTreeGrid: unexpected node numbering");
-
-    vtkNew<vtkIntArray> depth;
-    vtkNew<vtkDoubleArray> f_center, f_lo, f_hi;
-    vtkNew<vtkUnsignedCharArray> surf;
-    vtkNew<vtkSignedCharArray> cls;
-    vtkNew<vtkUnsignedCharArray> certain;  // with oct_certify: 1 on the certain leaves
-    if (tree->certain) {
-        certain->SetName("certain");
-        certain->SetNumberOfTuples((vtkIdType)total);
-    }
-    depth->SetName("depth");
-    f_center->SetName("f_center");
-    f_lo->SetName("f_lo");
-    f_hi->SetName("f_hi");
-    surf->SetName("surface");
-    cls->SetName("class");
-    for (vtkDataArray *a : {(vtkDataArray *)depth, (vtkDataArray *)f_center, (vtkDataArray *)f_lo,
-                            (vtkDataArray *)f_hi, (vtkDataArray *)surf, (vtkDataArray *)cls})
-        a->SetNumberOfTuples((vtkIdType)total);
-    // f over every cell and at its centre (the leaves keep the build's range),
-    // and the other arrays, in chunks over threads (a box's result does not
-    // depend on its batch)
-    {
-        int *depth_v = depth->GetPointer(0);
-        double *fc = f_center->GetPointer(0), *lo = f_lo->GetPointer(0), *hi = f_hi->GetPointer(0);
-        unsigned char *surf_v = surf->GetPointer(0);
-        signed char *cls_v = cls->GetPointer(0);
-        unsigned char *cert_v = tree->certain ? certain->GetPointer(0) : nullptr;
-        const size_t chunk = 4096;
-        const int threads = writer_threads(tree, (total + chunk - 1) / chunk);
-        std::vector<std::unique_ptr<Workspace>> ws;
-        for (int w = 0; w < threads; w++)
-            ws.push_back(std::make_unique<Workspace>(tape));
-        parallel_chunks(total, chunk, threads, [&](size_t s, size_t e, int w) {
-            const size_t m = e - s;
-            std::vector<iv_box_t> boxes(m);
-            std::vector<iv_t> fr(m);
-            std::vector<double> cx(m), cy(m), cz(m);
-            for (size_t k = 0; k < m; k++) {
-                const HtgNode &n = nodes[s + k];
-                boxes[k] = cell_box(tree, n.depth, n.ix, n.iy, n.iz);
-                cx[k] = 0.5 * boxes[k].x.lo + 0.5 * boxes[k].x.hi;
-                cy[k] = 0.5 * boxes[k].y.lo + 0.5 * boxes[k].y.hi;
-                cz[k] = 0.5 * boxes[k].z.lo + 0.5 * boxes[k].z.hi;
-            }
-            tape_eval_interval(tape, ws[(size_t)w]->ws, m, boxes.data(), fr.data());
-            tape_eval_point(tape, ws[(size_t)w]->ws, m, cx.data(), cy.data(), cz.data(), fc + s);
-            for (size_t k = 0; k < m; k++) {
-                const size_t i = s + k;
-                const oct_node_t node = tree->nodes[nodes[i].node];
-                double l = fr[k].lo, h = fr[k].hi;
-                signed char c;
-                unsigned char sure = 0;
-                switch (OCT_NODE_KIND(node)) {
-                case OCT_LEAF: {
-                    const oct_leaf_t &leaf = tree->leaves[OCT_NODE_VALUE(node)];
-                    l = leaf.f_lo, h = leaf.f_hi;
-                    c = CLASS_SURFACE;
-                    sure = (unsigned char)oct_leaf_certain(tree, OCT_NODE_VALUE(node));
-                    break;
-                }
-                case OCT_INTERIOR:
-                    c = CLASS_SPLIT;
-                    break;
-                default:
-                    c = (signed char)OCT_NODE_VALUE(node);
-                    break;
-                }
-                depth_v[i] = nodes[i].depth;
-                lo[i] = l;
-                hi[i] = h;
-                surf_v[i] = surface[i];
-                cls_v[i] = c;
-                if (cert_v)
-                    cert_v[i] = sure;
-            }
-        });
-    }
-    vtkCellData *cd = htg->GetCellData();
-    cd->AddArray(depth);
-    cd->AddArray(f_center);
-    cd->AddArray(f_lo);
-    cd->AddArray(f_hi);
-    cd->AddArray(surf);
-    cd->AddArray(cls);
-    if (tree->certain)
-        cd->AddArray(certain);
-    add_field_data(htg->GetFieldData(), tree, src);
-
-    vtkNew<vtkXMLHyperTreeGridWriter> w;
-    w->SetDataModeToBinary();  // appended mode in VTK 9.1 writes files it cannot read
-    if (piece) {
-        // format 0.0: VTK 9.1's parallel reader sizes its arrays by the pieces'
-        // NumberOfVertices (which only 0.0 writes) and rebuilds each tree depth
-        // first, copying the piece's arrays as they are: the numbering of a 0.0
-        // file read back; the 1.0 and 2.0 readers number the nodes breadth first
-        w->SetDataSetMajorVersion(0);
-        w->SetDataSetMinorVersion(0);
-    }
-    write_xml(w.Get(), htg, path);
-}
-
-}  // namespace
-
-void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
-                   const char *path)
-{
-    // the root's 8 children as a 2x2x2 grid of trees (HyperTreeGrid filters such as
-    // Contour work on a grid of trees); a root that is not split is one tree
-    const oct_node_t root = tree->nodes[0];
-    std::vector<HtgNode> roots;
-    if (OCT_NODE_KIND(root) == OCT_INTERIOR) {
-        for (uint32_t c = 0; c < 8; c++)
-            roots.push_back({OCT_NODE_VALUE(root) + c, 1, c & 1, c >> 1 & 1, c >> 2 & 1});
-        write_htg_trees(tree, tape, src, 1, roots, false, path);
-    } else {
-        roots.push_back({0, 0, 0, 0, 0});
-        write_htg_trees(tree, tape, src, 0, roots, false, path);
-    }
-}
-
-namespace {
-
-// The nodes of `tree` at depth g below node n (depth d, cell ix iy iz), in Morton
-// order; a surface leaf above g is an error (no tree of the grid can hold it).
-void nodes_at_depth(const oct_tree_t *tree, const HtgNode &n, int g, std::vector<HtgNode> &out,
-                    const char *path)
-{
-    const oct_node_t w = tree->nodes[n.node];
-    if (n.depth == g) {
-        out.push_back(n);
-    } else if (OCT_NODE_KIND(w) == OCT_INTERIOR) {
-        for (uint32_t c = 0; c < 8; c++)
-            nodes_at_depth(tree,
-                           {OCT_NODE_VALUE(w) + c, (uint8_t)(n.depth + 1), 2 * n.ix + (c & 1),
-                            2 * n.iy + (c >> 1 & 1), 2 * n.iz + (c >> 2 & 1)},
-                           g, out, path);
-    } else if (OCT_NODE_KIND(w) == OCT_LEAF) {
-        throw Error(std::string("cannot write ") + path + ": a surface leaf of depth " +
-                    std::to_string(n.depth) + " lies above depth " + std::to_string(g) +
-                    ", where the pieces' trees start (the frontier): a .phtg cannot hold "
-                    "it, a .htg can");
-    }
-}
-
-}  // namespace
-
-void vtk_write_htg_piece(const oct_tree_t *part, const tape_t *tape, const oct_source_t *src,
-                         int depth, const uint64_t *frontier, size_t n, int top, const char *path)
-{
-    // without a frontier the top is the whole tree: exp_htg's grid
-    const oct_node_t root = part->nodes[0];
-    const int g = n ? depth : OCT_NODE_KIND(root) == OCT_INTERIOR ? 1 : 0;
-    if (g < 0 || g > part->depth)
-        throw Error(std::string("cannot write ") + path + ": the frontier's depth " +
-                    std::to_string(depth) + " is not within the tree's");
-    for (size_t i = 1; i < n; i++)
-        if (frontier[i] <= frontier[i - 1])
-            throw Error(std::string("cannot write ") + path +
-                        ": the frontier's codes are not increasing");
-    std::vector<HtgNode> cells, roots;
-    nodes_at_depth(part, {0, 0, 0, 0, 0}, g, cells, path);
-    for (const HtgNode &c : cells) {
-        const uint64_t code = oct_morton(c.ix, c.iy, c.iz, g);
-        const bool in_frontier = std::binary_search(frontier, frontier + n, code);
-        const oct_node_t w = part->nodes[c.node];
-        // a frontier cell is split where its subtree is held, an empty cell where it
-        // is not (oct_plan_finish); the top's cells at the frontier's depth are not
-        // split (without a frontier, g = 1 holds the top's cells, split or not)
-        if (in_frontier ? OCT_NODE_KIND(w) == OCT_LEAF : n && OCT_NODE_KIND(w) == OCT_INTERIOR)
-            throw Error(std::string("cannot write ") + path + ": the cell " +
-                        std::to_string(code) + " of depth " + std::to_string(g) +
-                        (in_frontier ? " is a frontier cell but a leaf"
-                                     : " is split but not a frontier cell"));
-        if (in_frontier ? OCT_NODE_KIND(w) == OCT_INTERIOR : top != 0)
-            roots.push_back(c);
-    }
-    write_htg_trees(part, tape, src, g, roots, true, path);
-}
+// ---- .htg: htg_xml.cpp (VTK's HyperTreeGrid XML format, written without VTK's writer) ----
 
 // ---- .vtp -----------------------------------------------------------------------------
 void vtk_write_vtp(const Mesh &mesh, const oct_source_t *src, const char *path)

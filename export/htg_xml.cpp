@@ -1,0 +1,671 @@
+// ivoct export/ — the .htg writer: VTK's HyperTreeGrid XML format written
+// straight from the octree (no vtkHyperTreeGrid, no cursor walk, no VTK writer).
+//
+// The file is what VTK 9.1's vtkXMLHyperTreeGridWriter writes in binary mode
+// with UInt64 headers and its LZ4 compressor, byte for byte: the same XML (its
+// attributes, indentation and number formatting: vtkNumberToString, the
+// shortest digits that read back), the same arrays in the same order, each
+// one's data cut into blocks of 32768 bytes compressed on their own
+// (LZ4_compress_fast at vtkLZ4DataCompressor's acceleration for the writer's
+// default compression level 5), the compressed-data header (UInt64 block
+// count, block size, last block size, compressed sizes) base64-encoded, then
+// the compressed blocks base64-encoded as one stream.  What this writer does
+// differently is only how: the blocks of an array are compressed by threads,
+// the base64 is encoded by threads into big buffers, and the output goes to
+// the file in a few large writes.
+//
+// Two layouts of the same trees (VTK's file format versions):
+//   2.0 (exp_htg): the trees in tree-index order, each breadth first; one
+//       bit array Descriptors (per tree, 1 for a split node, every depth but
+//       the last), NumberOfVerticesPerDepth, TreeIds, DepthPerTree, and each
+//       cell array over all the trees' nodes in that order;
+//   0.0 (exp_htg_piece, VTK 9.1's parallel reader needs it: export/README.md):
+//       one <Tree> element per tree (tree-index order) with its Index,
+//       GlobalOffset and NumberOfVertices, its Descriptor (breadth first,
+//       every depth) and its own cell arrays, the nodes in the order a
+//       vtkHyperTree numbers them when built depth first: a split node's 8
+//       children take the next 8 numbers when the walk reaches it.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <locale>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <vtkNumberToString.h>
+#include <vtk_lz4.h>
+
+#include "internal.hpp"
+
+#if !defined(__BYTE_ORDER__) || __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "the .htg writer writes the host's bytes as LittleEndian"
+#endif
+
+namespace ivexp {
+namespace {
+
+enum { CLASS_SURFACE = 3, CLASS_SPLIT = 4 };
+
+constexpr size_t BLOCK = 32768;       // vtkXMLWriter's default BlockSize
+constexpr int LZ4_ACCELERATION = 5;   // vtkLZ4DataCompressor at the writer's level 5: 10 - 5
+constexpr size_t PARALLEL_BLOCKS = 8; // fewer blocks than this: one thread
+
+struct HtgNode {
+    uint32_t node;  // index in tree->nodes
+    uint8_t depth;
+    uint32_t ix, iy, iz;
+};
+
+inline HtgNode child_of(const HtgNode &n, uint32_t first, unsigned c)
+{
+    return {first + c, (uint8_t)(n.depth + 1), 2 * n.ix + (c & 1), 2 * n.iy + (c >> 1 & 1),
+            2 * n.iz + (c >> 2 & 1)};
+}
+
+inline bool is_split(const oct_tree_t *tree, const HtgNode &n)
+{
+    return OCT_NODE_KIND(tree->nodes[n.node]) == OCT_INTERIOR;
+}
+
+// ---- numbers and base64 -------------------------------------------------------------
+// A double as vtkXMLWriter writes an attribute (vtkNumberToString: shortest round trip).
+std::string num(double v)
+{
+    std::ostringstream s;
+    s.imbue(std::locale::classic());
+    s << vtkNumberToString()(v);
+    return s.str();
+}
+
+const char B64[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+
+inline size_t b64_size(size_t n) { return (n + 2) / 3 * 4; }
+
+// Two base64 digits for each 12-bit value.
+struct B64Pairs {
+    B64Pairs()
+    {
+        for (unsigned v = 0; v < 4096; v++) {
+            pair[v][0] = B64[v >> 6];
+            pair[v][1] = B64[v & 63];
+        }
+    }
+    char pair[4096][2];
+};
+const B64Pairs b64_pairs;
+
+// n bytes as base64 (padded with '=' as vtkBase64OutputStream ends a stream)
+void b64_encode(const unsigned char *in, size_t n, char *out)
+{
+    size_t i = 0;
+    for (; i + 3 <= n; i += 3, out += 4) {
+        const uint32_t v = (uint32_t)in[i] << 16 | (uint32_t)in[i + 1] << 8 | in[i + 2];
+        std::memcpy(out, b64_pairs.pair[v >> 12], 2);
+        std::memcpy(out + 2, b64_pairs.pair[v & 4095], 2);
+    }
+    if (n - i == 1) {
+        const uint32_t v = (uint32_t)in[i] << 16;
+        out[0] = B64[v >> 18];
+        out[1] = B64[v >> 12 & 63];
+        out[2] = out[3] = '=';
+    } else if (n - i == 2) {
+        const uint32_t v = (uint32_t)in[i] << 16 | (uint32_t)in[i + 1] << 8;
+        out[0] = B64[v >> 18];
+        out[1] = B64[v >> 12 & 63];
+        out[2] = B64[v >> 6 & 63];
+        out[3] = '=';
+    }
+}
+
+// ---- ranges (vtkDataArray::GetRange: NaN skipped; none: VTK_DOUBLE_MAX, VTK_DOUBLE_MIN) --
+struct Range {
+    double lo = 1.0e+299, hi = -1.0e+299;
+    void add(double v)
+    {
+        if (std::isnan(v))
+            return;
+        lo = v < lo ? v : lo;
+        hi = v > hi ? v : hi;
+    }
+};
+
+template <class T> Range range_of(const T *v, size_t n)
+{
+    Range r;
+    if (n == 0)
+        return r;
+    T lo = v[0], hi = v[0];
+    bool any = false;
+    for (size_t i = 0; i < n; i++) {
+        if (v[i] != v[i])  // NaN
+            continue;
+        if (!any)
+            lo = hi = v[i], any = true;
+        lo = v[i] < lo ? v[i] : lo;
+        hi = v[i] > hi ? v[i] : hi;
+    }
+    if (any)
+        r.lo = (double)lo, r.hi = (double)hi;
+    return r;
+}
+
+// ---- bits ---------------------------------------------------------------------------
+// vtkBitArray's layout: bit i in byte i / 8, most significant bit first; the
+// unused bits of the last byte 0.
+struct Bits {
+    std::vector<unsigned char> bytes;
+    size_t n = 0;
+    size_t ones = 0;
+    void push(bool b)
+    {
+        if ((n & 7) == 0)
+            bytes.push_back(0);
+        if (b) {
+            bytes.back() |= (unsigned char)(0x80u >> (n & 7));
+            ones++;
+        }
+        n++;
+    }
+    void drop(size_t k)  // the last k bits, all 0
+    {
+        n -= k;
+        bytes.resize((n + 7) / 8);
+    }
+    Range range() const
+    {
+        Range r;
+        if (n) {
+            r.lo = ones == n ? 1 : 0;
+            r.hi = ones ? 1 : 0;
+        }
+        return r;
+    }
+};
+
+// ---- the file -----------------------------------------------------------------------
+class Writer {
+public:
+    Writer(const char *path, int threads) : out_(path), threads_(threads) {}
+
+    std::string &text() { return text_; }
+
+    // <DataArray ...> (or <Array ...> for strings) with its inline binary data:
+    // vtkXMLWriter::WriteArrayInline.  NumberOfTuples is written when tuples is
+    // not 0 (VTK's writers pass the count as a flag); ranges for data arrays.
+    void array(int indent, const char *type, const std::string &name, size_t tuples,
+               const void *data, size_t bytes, const Range *range)
+    {
+        const std::string pad((size_t)indent, ' ');
+        const char *tag = range ? "DataArray" : "Array";
+        text_ += pad + "<" + tag + " type=\"" + type + "\" Name=\"" + name + "\"";
+        if (tuples)
+            text_ += " NumberOfTuples=\"" + std::to_string(tuples) + "\"";
+        text_ += " format=\"binary\"";
+        if (range)
+            text_ += " RangeMin=\"" + num(range->lo) + "\" RangeMax=\"" + num(range->hi) + "\"";
+        text_ += ">\n" + pad + "  ";
+        binary(static_cast<const unsigned char *>(data), bytes);
+        text_ += "\n" + pad + "</" + tag + ">\n";
+        if (text_.size() > ((size_t)8 << 20))
+            flush();
+    }
+
+    void commit()
+    {
+        flush();
+        out_.commit();
+    }
+
+private:
+    void flush()
+    {
+        out_.write(text_.data(), text_.size());
+        text_.clear();
+    }
+
+    // The compressed data of n bytes: base64 of the header, base64 of the blocks.
+    void binary(const unsigned char *p, size_t n)
+    {
+        const size_t nblocks = n / BLOCK + (n % BLOCK ? 1 : 0);
+        const size_t bound = (size_t)LZ4_COMPRESSBOUND((int)BLOCK);
+        std::vector<uint64_t> header(3 + nblocks);
+        header[0] = nblocks;
+        header[1] = BLOCK;
+        header[2] = n % BLOCK;
+        std::unique_ptr<char[]> comp(new char[nblocks ? nblocks * bound : 1]);
+        const int threads = nblocks >= PARALLEL_BLOCKS ? threads_ : 1;
+        parallel_chunks(nblocks, 1, threads, [&](size_t b, size_t, int) {
+            const size_t size = std::min(BLOCK, n - b * BLOCK);
+            const int cs = LZ4_compress_fast(reinterpret_cast<const char *>(p + b * BLOCK),
+                                             comp.get() + b * bound, (int)size, (int)bound,
+                                             LZ4_ACCELERATION);
+            if (cs <= 0)
+                throw Error(std::string("cannot write ") + out_.path() + ": LZ4 failed");
+            header[3 + b] = (uint64_t)cs;
+        });
+        // the blocks end to end (each moves down, in order)
+        size_t total = 0;
+        for (size_t b = 0; b < nblocks; b++) {
+            if (total != b * bound)
+                std::memmove(comp.get() + total, comp.get() + b * bound, header[3 + b]);
+            total += header[3 + b];
+        }
+        const size_t hbytes = header.size() * sizeof(uint64_t);
+        size_t at = text_.size();
+        text_.resize(at + b64_size(hbytes));
+        b64_encode(reinterpret_cast<const unsigned char *>(header.data()), hbytes, &text_[at]);
+        const size_t size = b64_size(total);
+        if (size < ((size_t)1 << 20)) {
+            at = text_.size();
+            text_.resize(at + size);
+            b64_encode(reinterpret_cast<const unsigned char *>(comp.get()), total, &text_[at]);
+            return;
+        }
+        // a big one: encoded by threads (pieces of a multiple of 3 bytes) into its
+        // own buffer, written after the text before it
+        std::unique_ptr<char[]> enc(new char[size]);
+        const size_t piece = 3 * ((size_t)1 << 16);
+        const size_t pieces = (total + piece - 1) / piece;
+        parallel_chunks(pieces, 1, std::min(threads_, (int)std::min(pieces, (size_t)64)),
+                        [&](size_t k, size_t, int) {
+                            const size_t s = k * piece, m = std::min(piece, total - s);
+                            b64_encode(reinterpret_cast<const unsigned char *>(comp.get()) + s, m,
+                                       enc.get() + s / 3 * 4);
+                        });
+        comp.reset();
+        flush();
+        out_.write(enc.get(), size);
+    }
+
+    Output out_;
+    int threads_;
+    std::string text_;
+};
+
+// ---- the trees ----------------------------------------------------------------------
+// Is there a surface leaf at or below node i?  Into s[] for the whole subtree.
+bool mark_surface(const oct_tree_t *tree, uint32_t i, std::vector<uint8_t> &s)
+{
+    const oct_node_t w = tree->nodes[i];
+    bool has = OCT_NODE_KIND(w) == OCT_LEAF;
+    if (OCT_NODE_KIND(w) == OCT_INTERIOR)
+        for (uint32_t c = 0; c < 8; c++)
+            has = mark_surface(tree, OCT_NODE_VALUE(w) + c, s) || has;
+    s[i] = has;
+    return has;
+}
+
+// The nodes below n in a vtkHyperTree's numbering of a tree built depth first
+// (a split node's children take the next 8 numbers when the walk reaches it).
+void creation_order(const oct_tree_t *tree, const HtgNode &n, std::vector<HtgNode> &out)
+{
+    if (!is_split(tree, n))
+        return;
+    const size_t first = out.size();
+    const uint32_t child = OCT_NODE_VALUE(tree->nodes[n.node]);
+    for (unsigned c = 0; c < 8; c++)
+        out.push_back(child_of(n, child, c));
+    for (unsigned c = 0; c < 8; c++) {
+        const HtgNode ch = out[first + c];
+        creation_order(tree, ch, out);
+    }
+}
+
+struct Tree {
+    uint64_t index;               // in the grid (x fastest)
+    size_t first, count;          // its nodes in the output order
+    std::vector<int64_t> per_depth;  // nodes at each depth of the tree
+};
+
+// The cell arrays, over the nodes in output order (not zeroed: every value is
+// written once).
+struct Cells {
+    explicit Cells(size_t n, bool with_certain)
+        : depth(new int32_t[n]), f_center(new double[n]), f_lo(new double[n]),
+          f_hi(new double[n]), surface(new uint8_t[n]), cls(new int8_t[n]),
+          certain(with_certain ? new uint8_t[n] : nullptr)
+    {
+    }
+    std::unique_ptr<int32_t[]> depth;
+    std::unique_ptr<double[]> f_center, f_lo, f_hi;
+    std::unique_ptr<uint8_t[]> surface;
+    std::unique_ptr<int8_t[]> cls;
+    std::unique_ptr<uint8_t[]> certain;
+};
+
+// The bounds of the cells, from a table of depth T = min(D, 16) per axis
+// (oct_coord gives the same double for the same fraction at any depth); deeper
+// cells from oct_coord itself.
+class Coords {
+public:
+    explicit Coords(const oct_tree_t *tree) : box_(tree->box), t_(std::min(std::max(tree->depth, 0), 16))
+    {
+        const uint64_t n = ((uint64_t)1 << t_) + 1;
+        for (int a = 0; a < 3; a++) {
+            table_[a].resize(n);
+            for (uint64_t i = 0; i < n; i++)
+                table_[a][i] = oct_coord(box_[2 * a], box_[2 * a + 1], i, t_);
+        }
+    }
+    double at(int axis, uint64_t i, int depth) const
+    {
+        return depth <= t_ ? table_[axis][i << (t_ - depth)]
+                           : oct_coord(box_[2 * axis], box_[2 * axis + 1], i, depth);
+    }
+    iv_box_t box(const HtgNode &n) const
+    {
+        return {{at(0, n.ix, n.depth), at(0, (uint64_t)n.ix + 1, n.depth)},
+                {at(1, n.iy, n.depth), at(1, (uint64_t)n.iy + 1, n.depth)},
+                {at(2, n.iz, n.depth), at(2, (uint64_t)n.iz + 1, n.depth)}};
+    }
+
+private:
+    const double *box_;
+    int t_;
+    std::vector<double> table_[3];
+};
+
+Cells cell_values(const oct_tree_t *tree, const tape_t *tape, const std::vector<HtgNode> &nodes,
+                  const std::vector<uint8_t> &surface)
+{
+    const size_t total = nodes.size();
+    Cells v(total, tree->certain != nullptr);
+    const Coords coords(tree);
+    // f over every cell and at its centre (the leaves keep the build's range), and
+    // the other arrays, in chunks over threads (a box's result does not depend on
+    // its batch)
+    const size_t chunk = 4096;
+    const int threads = writer_threads(tree, (total + chunk - 1) / chunk);
+    std::vector<std::unique_ptr<Workspace>> ws;
+    for (int w = 0; w < threads; w++)
+        ws.push_back(std::make_unique<Workspace>(tape));
+    parallel_chunks(total, chunk, threads, [&](size_t s, size_t e, int w) {
+        const size_t m = e - s;
+        // the interval evaluation only where it is kept: not on the surface leaves
+        std::vector<iv_box_t> boxes(m);
+        std::vector<iv_t> fr(m);
+        std::vector<double> cx(m), cy(m), cz(m);
+        size_t q = 0;
+        for (size_t k = 0; k < m; k++) {
+            const iv_box_t b = coords.box(nodes[s + k]);
+            cx[k] = 0.5 * b.x.lo + 0.5 * b.x.hi;
+            cy[k] = 0.5 * b.y.lo + 0.5 * b.y.hi;
+            cz[k] = 0.5 * b.z.lo + 0.5 * b.z.hi;
+            if (OCT_NODE_KIND(tree->nodes[nodes[s + k].node]) != OCT_LEAF)
+                boxes[q++] = b;
+        }
+        tape_eval_interval(tape, ws[(size_t)w]->ws, q, boxes.data(), fr.data());
+        tape_eval_point(tape, ws[(size_t)w]->ws, m, cx.data(), cy.data(), cz.data(),
+                        v.f_center.get() + s);
+        q = 0;
+        for (size_t k = 0; k < m; k++) {
+            const size_t i = s + k;
+            const oct_node_t node = tree->nodes[nodes[i].node];
+            double l = 0, h = 0;
+            if (OCT_NODE_KIND(node) != OCT_LEAF)
+                l = fr[q].lo, h = fr[q].hi, q++;
+            signed char c;
+            unsigned char sure = 0;
+            switch (OCT_NODE_KIND(node)) {
+            case OCT_LEAF: {
+                const oct_leaf_t &leaf = tree->leaves[OCT_NODE_VALUE(node)];
+                l = leaf.f_lo, h = leaf.f_hi;
+                c = CLASS_SURFACE;
+                sure = (unsigned char)oct_leaf_certain(tree, OCT_NODE_VALUE(node));
+                break;
+            }
+            case OCT_INTERIOR:
+                c = CLASS_SPLIT;
+                break;
+            default:
+                c = (signed char)OCT_NODE_VALUE(node);
+                break;
+            }
+            v.depth[i] = nodes[i].depth;
+            v.f_lo[i] = l;
+            v.f_hi[i] = h;
+            v.surface[i] = surface[nodes[i].node];
+            v.cls[i] = c;
+            if (v.certain)
+                v.certain[i] = sure;
+        }
+    });
+    return v;
+}
+
+// The cell arrays of nodes [first, first + n) (vtkXMLWriter's order: as the cell
+// data were added).
+void cell_arrays(Writer &w, int indent, const Cells &v, size_t first, size_t n)
+{
+    Range r = range_of(v.depth.get() + first, n);
+    w.array(indent, "Int32", "depth", n, v.depth.get() + first, 4 * n, &r);
+    r = range_of(v.f_center.get() + first, n);
+    w.array(indent, "Float64", "f_center", n, v.f_center.get() + first, 8 * n, &r);
+    r = range_of(v.f_lo.get() + first, n);
+    w.array(indent, "Float64", "f_lo", n, v.f_lo.get() + first, 8 * n, &r);
+    r = range_of(v.f_hi.get() + first, n);
+    w.array(indent, "Float64", "f_hi", n, v.f_hi.get() + first, 8 * n, &r);
+    r = range_of(v.surface.get() + first, n);
+    w.array(indent, "UInt8", "surface", n, v.surface.get() + first, n, &r);
+    r = range_of(v.cls.get() + first, n);
+    w.array(indent, "Int8", "class", n, v.cls.get() + first, n, &r);
+    if (v.certain) {
+        r = range_of(v.certain.get() + first, n);
+        w.array(indent, "UInt8", "certain", n, v.certain.get() + first, n, &r);
+    }
+}
+
+// The HyperTreeGrid of the subtrees of `tree` below `roots`, cells of depth g:
+// a grid of 2^g x 2^g x 2^g trees (their bounds oct_coord at depth g), a tree at
+// each root's cell; every node a cell, with the cell data and field data of
+// exp_htg.  `piece`: a piece of a .phtg, in the file format VTK's parallel
+// reader reads right (0.0); else 2.0.
+void write_htg_trees(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src, int g,
+                     std::vector<HtgNode> roots, bool piece, const char *path)
+{
+    const uint64_t cells = (uint64_t)1 << g;
+    auto tree_index = [cells](const HtgNode &r) {
+        return (uint64_t)r.ix + cells * ((uint64_t)r.iy + cells * (uint64_t)r.iz);
+    };
+    // VTK's tree iterator goes by tree index
+    std::stable_sort(roots.begin(), roots.end(), [&](const HtgNode &a, const HtgNode &b) {
+        return tree_index(a) < tree_index(b);
+    });
+
+    std::vector<uint8_t> surface(tree->n_nodes);
+    for (const HtgNode &r : roots)
+        mark_surface(tree, r.node, surface);
+
+    // each tree breadth first: its depths, its descriptor; the output order
+    std::vector<HtgNode> nodes, bfs;
+    nodes.reserve(tree->n_nodes);
+    std::vector<Tree> trees;
+    Bits desc;                    // 2.0: all trees, every depth but the last
+    std::vector<Bits> tree_desc;  // 0.0: per tree, every depth
+    for (const HtgNode &r : roots) {
+        Tree t{tree_index(r), nodes.size(), 0, {}};
+        if (piece) {
+            bfs.clear();
+            tree_desc.emplace_back();
+        }
+        std::vector<HtgNode> &level = piece ? bfs : nodes;
+        Bits &d = piece ? tree_desc.back() : desc;
+        const size_t start = level.size();
+        level.push_back(r);
+        size_t a = start;
+        while (a < level.size()) {
+            const size_t b = level.size();
+            t.per_depth.push_back((int64_t)(b - a));
+            for (size_t i = a; i < b; i++) {
+                const oct_node_t w = tree->nodes[level[i].node];
+                d.push(OCT_NODE_KIND(w) == OCT_INTERIOR);
+                if (OCT_NODE_KIND(w) == OCT_INTERIOR) {
+                    const HtgNode parent = level[i];
+                    for (unsigned c = 0; c < 8; c++)
+                        level.push_back(child_of(parent, OCT_NODE_VALUE(w), c));
+                }
+            }
+            a = b;
+        }
+        t.count = level.size() - start;
+        if (piece) {
+            nodes.push_back(r);
+            creation_order(tree, r, nodes);
+        } else {
+            d.drop((size_t)t.per_depth.back());  // the last depth's 0s are not written
+        }
+        trees.push_back(std::move(t));
+    }
+    std::vector<HtgNode>().swap(bfs);
+    const size_t total = nodes.size();
+    const Cells v = cell_values(tree, tape, nodes, surface);
+    std::vector<HtgNode>().swap(nodes);
+    std::vector<uint8_t>().swap(surface);
+
+    Writer w(path, writer_threads(tree, (size_t)-1));
+    std::string &t = w.text();
+    t += "<?xml version=\"1.0\"?>\n<VTKFile type=\"HyperTreeGrid\" version=\"";
+    t += piece ? "0.0" : "2.0";
+    t += "\" byte_order=\"LittleEndian\" header_type=\"UInt64\" "
+         "compressor=\"vtkLZ4DataCompressor\">\n  <HyperTreeGrid";
+    if (piece)
+        t += " Dimension=\"3\" Orientation=\"-1\"";
+    const std::string dim = std::to_string(cells + 1);
+    t += " BranchFactor=\"2\" TransposedRootIndexing=\"0\" Dimensions=\"" + dim + " " + dim + " " +
+         dim + "\"";
+    if (piece)
+        t += " NumberOfVertices=\"" + std::to_string(total) + "\"";
+    t += ">\n    <Grid>\n";
+    std::vector<double> coord(cells + 1);
+    static const char *const axes[3] = {"XCoordinates", "YCoordinates", "ZCoordinates"};
+    for (int axis = 0; axis < 3; axis++) {
+        for (uint64_t i = 0; i <= cells; i++)
+            coord[i] = oct_coord(tree->box[2 * axis], tree->box[2 * axis + 1], i, g);
+        const Range r = range_of(coord.data(), coord.size());
+        w.array(6, "Float64", axes[axis], coord.size(), coord.data(), 8 * coord.size(), &r);
+    }
+    t += "    </Grid>\n    <Trees>\n";
+    if (piece) {
+        int64_t offset = 0;
+        for (size_t k = 0; k < trees.size(); k++) {
+            const Tree &tr = trees[k];
+            t += "      <Tree Index=\"" + std::to_string(tr.index) + "\" GlobalOffset=\"" +
+                 std::to_string(offset) + "\" NumberOfVertices=\"" + std::to_string(tr.count) +
+                 "\">\n";
+            const Range r = tree_desc[k].range();
+            w.array(8, "Bit", "Descriptor", tree_desc[k].n, tree_desc[k].bytes.data(),
+                    tree_desc[k].bytes.size(), &r);
+            t += "        <CellData>\n";
+            cell_arrays(w, 10, v, tr.first, tr.count);
+            t += "        </CellData>\n      </Tree>\n";
+            offset += (int64_t)tr.count;
+        }
+        t += "    </Trees>\n";
+    } else {
+        std::vector<int64_t> per_depth, ids;
+        std::vector<uint32_t> depths;
+        for (const Tree &tr : trees) {
+            per_depth.insert(per_depth.end(), tr.per_depth.begin(), tr.per_depth.end());
+            ids.push_back((int64_t)tr.index);
+            depths.push_back((uint32_t)tr.per_depth.size());
+        }
+        Range r = desc.range();
+        w.array(8, "Bit", "Descriptors", desc.n, desc.bytes.data(), desc.bytes.size(), &r);
+        r = range_of(per_depth.data(), per_depth.size());
+        w.array(8, "Int64", "NumberOfVerticesPerDepth", per_depth.size(), per_depth.data(),
+                8 * per_depth.size(), &r);
+        r = range_of(ids.data(), ids.size());
+        w.array(8, "Int64", "TreeIds", ids.size(), ids.data(), 8 * ids.size(), &r);
+        r = range_of(depths.data(), depths.size());
+        w.array(8, "UInt32", "DepthPerTree", depths.size(), depths.data(), 4 * depths.size(), &r);
+        t += "    </Trees>\n    <CellData>\n";
+        cell_arrays(w, 8, v, 0, total);
+        t += "    </CellData>\n";
+    }
+    // field data: the source's strings (each with its terminating 0), box, depth
+    t += "    <FieldData>\n";
+    for (const MetaItem &m : meta_strings(src))
+        w.array(6, "String", m.key, 1, m.value.c_str(), m.value.size() + 1, nullptr);
+    const Range rb = range_of(tree->box, 6);
+    w.array(6, "Float64", "box", 6, tree->box, 8 * 6, &rb);
+    const int32_t depth = tree->depth;
+    const Range rd = range_of(&depth, 1);
+    w.array(6, "Int32", "depth", 1, &depth, 4, &rd);
+    t += "    </FieldData>\n  </HyperTreeGrid>\n</VTKFile>\n";
+    w.commit();
+}
+
+// The nodes of `tree` at depth g below node n (depth d, cell ix iy iz), in Morton
+// order; a surface leaf above g is an error (no tree of the grid can hold it).
+void nodes_at_depth(const oct_tree_t *tree, const HtgNode &n, int g, std::vector<HtgNode> &out,
+                    const char *path)
+{
+    const oct_node_t w = tree->nodes[n.node];
+    if (n.depth == g) {
+        out.push_back(n);
+    } else if (OCT_NODE_KIND(w) == OCT_INTERIOR) {
+        for (uint32_t c = 0; c < 8; c++)
+            nodes_at_depth(tree, child_of(n, OCT_NODE_VALUE(w), c), g, out, path);
+    } else if (OCT_NODE_KIND(w) == OCT_LEAF) {
+        throw Error(std::string("cannot write ") + path + ": a surface leaf of depth " +
+                    std::to_string(n.depth) + " lies above depth " + std::to_string(g) +
+                    ", where the pieces' trees start (the frontier): a .phtg cannot hold "
+                    "it, a .htg can");
+    }
+}
+
+}  // namespace
+
+void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
+                   const char *path)
+{
+    // the root's 8 children as a 2x2x2 grid of trees (HyperTreeGrid filters such as
+    // Contour work on a grid of trees); a root that is not split is one tree
+    const oct_node_t root = tree->nodes[0];
+    std::vector<HtgNode> roots;
+    if (OCT_NODE_KIND(root) == OCT_INTERIOR) {
+        for (uint32_t c = 0; c < 8; c++)
+            roots.push_back(child_of({0, 0, 0, 0, 0}, OCT_NODE_VALUE(root), c));
+        write_htg_trees(tree, tape, src, 1, std::move(roots), false, path);
+    } else {
+        roots.push_back({0, 0, 0, 0, 0});
+        write_htg_trees(tree, tape, src, 0, std::move(roots), false, path);
+    }
+}
+
+void vtk_write_htg_piece(const oct_tree_t *part, const tape_t *tape, const oct_source_t *src,
+                         int depth, const uint64_t *frontier, size_t n, int top, const char *path)
+{
+    // without a frontier the top is the whole tree: exp_htg's grid
+    const oct_node_t root = part->nodes[0];
+    const int g = n ? depth : OCT_NODE_KIND(root) == OCT_INTERIOR ? 1 : 0;
+    if (g < 0 || g > part->depth)
+        throw Error(std::string("cannot write ") + path + ": the frontier's depth " +
+                    std::to_string(depth) + " is not within the tree's");
+    for (size_t i = 1; i < n; i++)
+        if (frontier[i] <= frontier[i - 1])
+            throw Error(std::string("cannot write ") + path +
+                        ": the frontier's codes are not increasing");
+    std::vector<HtgNode> cells, roots;
+    nodes_at_depth(part, {0, 0, 0, 0, 0}, g, cells, path);
+    for (const HtgNode &c : cells) {
+        const uint64_t code = oct_morton(c.ix, c.iy, c.iz, g);
+        const bool in_frontier = std::binary_search(frontier, frontier + n, code);
+        const oct_node_t w = part->nodes[c.node];
+        // a frontier cell is split where its subtree is held, an empty cell where it
+        // is not (oct_plan_finish); the top's cells at the frontier's depth are not
+        // split (without a frontier, g = 1 holds the top's cells, split or not)
+        if (in_frontier ? OCT_NODE_KIND(w) == OCT_LEAF : n && OCT_NODE_KIND(w) == OCT_INTERIOR)
+            throw Error(std::string("cannot write ") + path + ": the cell " +
+                        std::to_string(code) + " of depth " + std::to_string(g) +
+                        (in_frontier ? " is a frontier cell but a leaf"
+                                     : " is split but not a frontier cell"));
+        if (in_frontier ? OCT_NODE_KIND(w) == OCT_INTERIOR : top != 0)
+            roots.push_back(c);
+    }
+    write_htg_trees(part, tape, src, g, std::move(roots), true, path);
+}
+
+}  // namespace ivexp

@@ -263,9 +263,9 @@ mpirun_ivoct 2 1 "pieces past the budget" -- build "$SCENES/gumdrop.ini" --depth
     --max-memory 2M --vtu "$F/p.pvtu" &&
     one_message "pieces past the budget" "--vtu needs" "past the memory budget of 2.0 MB"
 nothing_left "pieces past the budget"
-# the .htg pieces: 300 bytes a node beside the part (gumdrop has 26 000 cells at depth 5,
-# 100 000 at depth 6: the larger part at least half of them)
-mpirun_ivoct 2 1 ".htg pieces past the budget" -- build "$SCENES/gumdrop.ini" --depth $depth \
+# the .htg pieces: 75 bytes a node beside the part (gumdrop has 100 000 cells at depth 6,
+# the larger part at least half of them: 3.7 MB; at depth 5, 26 000 cells fit in 2 MB)
+mpirun_ivoct 2 1 ".htg pieces past the budget" -- build "$SCENES/gumdrop.ini" --depth 6 \
     --max-memory 2M --htg "$F/p.phtg" &&
     one_message ".htg pieces past the budget" "--htg needs" "past the memory budget of 2.0 MB"
 nothing_left ".htg pieces past the budget"

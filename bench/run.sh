@@ -99,6 +99,25 @@ else
     bash "$here/implicitize.sh" --build "$build"
 fi
 
+part "the certified mesh against OpenVDB's: time, topology, distance to the surface (bench/mesh.sh)"
+if [ -x "$build/bench/ivoct_mesh_quality" ]; then
+    # --reps 2 (the documented table is mesh.sh alone, best of 3): about 3 minutes
+    if [ "$quick" = 1 ]; then bash "$here/mesh.sh" --build "$build" --quick
+    else bash "$here/mesh.sh" --build "$build" --reps 2; fi
+else
+    echo "(skipped: no $build/bench/ivoct_mesh_quality; it is built with the tests)"
+fi
+
+part "certain leaves: point witnesses against modal intervals, by depth (bench/certain.sh)"
+if [ "$quick" = 1 ]; then
+    bash "$here/certain.sh" --build "$build" --quick
+else
+    # one run each, no configuration predicted over 20 s (most of depth 10 is left
+    # out): about 2 minutes (the documented table is certain.sh alone: best of 2, up
+    # to 60 s each)
+    bash "$here/certain.sh" --build "$build" --reps 1 --cap 20
+fi
+
 part "numerical stability stress cases (bench/stability.sh)"
 bash "$here/stability.sh" --build "$build"
 

@@ -159,67 +159,37 @@ static msh_params_t mesh_params(const build_job_t *job)
     return p;
 }
 
-/* Do two closed boxes touch? */
-static bool boxes_touch(const iv_box_t *a, const iv_box_t *b)
-{
-    const iv_t *p = &a->x, *q = &b->x;
-    for (int k = 0; k < 3; k++)
-        if (p[k].hi < q[k].lo || q[k].hi < p[k].lo)
-            return false;
-    return true;
-}
-
-static size_t region_root(size_t *parent, size_t i)
-{
-    while (parent[i] != i)
-        i = parent[i] = parent[parent[i]];
-    return i;
-}
-
-/* The cells where the certified mesh failed, on stderr, gathered into regions
- * of touching cells (a singular point makes one region). */
+/* The cells where the certified mesh failed, on stderr, by region of touching
+ * cells (msh_failure_t.region: a singular point makes one). */
 static void report_failures(const msh_mesh_t *m, int max_depth)
 {
-    size_t n = m->n_failures, *parent = malloc(n * sizeof *parent);
-    /* pairwise: fine for the thousands of cells a failure has; beyond that
-     * each cell is its own region */
-    bool gather = parent && n <= 20000;
-    for (size_t i = 0; parent && i < n; i++)
-        parent[i] = i;
-    for (size_t i = 0; gather && i < n; i++)
-        for (size_t j = i + 1; j < n; j++)
-            if (boxes_touch(&m->failures[i].box, &m->failures[j].box))
-                parent[region_root(parent, i)] = region_root(parent, j);
-    size_t regions = 0;
-    for (size_t i = 0; parent && i < n; i++)
-        regions += region_root(parent, i) == i;
+    size_t n = m->n_failures, regions = m->n_regions, shown = regions < 20 ? regions : 20;
     fprintf(stderr,
             "ivoct build: --mesh-certified: the topology is not certified in %zu cell%s "
             "(max depth %d), in %zu region%s:\n",
             n, n > 1 ? "s" : "", max_depth, regions, regions > 1 ? "s" : "");
-    size_t shown = 0;
-    for (size_t r = 0; parent && r < n && shown < 20; r++) {
-        if (region_root(parent, r) != r)
+    /* the first regions' cell counts, hulls and reasons, in one pass */
+    size_t cells[20] = {0}, by[20][MSH_FAIL_LOOPS + 1] = {{0}};
+    iv_box_t hull[20];
+    for (size_t i = 0; i < n; i++) {
+        const msh_failure_t *f = &m->failures[i];
+        if (f->region >= shown)
             continue;
-        size_t cells = 0, by[MSH_FAIL_LOOPS + 1] = {0};
-        iv_box_t hull = m->failures[r].box;
-        iv_t *h = &hull.x;
-        for (size_t i = 0; i < n; i++) {
-            if (region_root(parent, i) != r)
-                continue;
-            const iv_t *b = &m->failures[i].box.x;
-            for (int k = 0; k < 3; k++)
-                h[k] = iv_hull(h[k], b[k]);
-            cells++;
-            by[m->failures[i].reason]++;
-        }
-        fprintf(stderr, "  %zu cell%s in [%.9g, %.9g] x [%.9g, %.9g] x [%.9g, %.9g]:", cells,
-                cells > 1 ? "s" : "", h[0].lo, h[0].hi, h[1].lo, h[1].hi, h[2].lo, h[2].hi);
+        iv_t *h = &hull[f->region].x;
+        const iv_t *b = &f->box.x;
+        for (int k = 0; k < 3; k++)
+            h[k] = cells[f->region] ? iv_hull(h[k], b[k]) : b[k];
+        cells[f->region]++;
+        by[f->region][f->reason]++;
+    }
+    for (size_t r = 0; r < shown; r++) {
+        const iv_t *h = &hull[r].x;
+        fprintf(stderr, "  %zu cell%s in [%.9g, %.9g] x [%.9g, %.9g] x [%.9g, %.9g]:", cells[r],
+                cells[r] > 1 ? "s" : "", h[0].lo, h[0].hi, h[1].lo, h[1].hi, h[2].lo, h[2].hi);
         for (int k = 0; k <= MSH_FAIL_LOOPS; k++)
-            if (by[k])
-                fprintf(stderr, " %s %zu", msh_reason_name((msh_reason_t)k), by[k]);
+            if (by[r][k])
+                fprintf(stderr, " %s %zu", msh_reason_name((msh_reason_t)k), by[r][k]);
         fputc('\n', stderr);
-        shown++;
     }
     if (regions > shown)
         fprintf(stderr, "  ... and %zu more regions\n", regions - shown);
@@ -228,7 +198,6 @@ static void report_failures(const msh_mesh_t *m, int max_depth)
             "  point of the surface, or an enclosure too wide: a larger --depth may certify it);\n"
             "  sign: f's sign at a corner is not certified; face, loops: the surface crosses a\n"
             "  face twice, or meets the cell in several pieces, at the max depth (mesh/README.md)\n");
-    free(parent);
 }
 
 /* The certified mesh, built before the outputs are written (its figures go into

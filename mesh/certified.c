@@ -176,6 +176,8 @@ typedef struct ctx {
 
     msh_mesh_t *out;
     size_t cap_points, cap_tris, cap_tri_cell, cap_cellout, cap_depth, cap_fail;
+    int32_t *fail_cell; /* per failure of this pass: its cell */
+    size_t cap_fail_cell;
     uint32_t pass;
     ivoct_error_t *err;
 } ctx_t;
@@ -972,6 +974,15 @@ static int apex_line(const ctx_t *c, const iv_box_t *box, const double d[3], con
     return !inside;
 }
 
+/* The average of a loop's crossings. */
+static void loop_average(const ctx_t *c, const seg_t *segs, int ns, double avg[3])
+{
+    avg[0] = avg[1] = avg[2] = 0;
+    for (int j = 0; j < ns; j++)
+        for (int a = 0; a < 3; a++)
+            avg[a] += c->xs[segs[j].from].p[a] / ns;
+}
+
 /* A cell of this pass with one loop: its segments are segs[off, off + ns). */
 typedef struct loop_cell {
     int32_t cell;
@@ -998,11 +1009,9 @@ static int place_apexes(ctx_t *c, const loop_cell_t *lc, size_t n, const seg_t *
         const cell_t *cl = &c->cells[lc[i].cell];
         if (cl->has_apex)
             continue;
-        double avg[3] = {0, 0, 0}, e[2][3];
+        double avg[3], e[2][3];
         const seg_t *sg_i = segs + lc[i].off;
-        for (uint32_t j = 0; j < lc[i].ns; j++)
-            for (int a = 0; a < 3; a++)
-                avg[a] += c->xs[sg_i[j].from].p[a] / lc[i].ns;
+        loop_average(c, sg_i, (int)lc[i].ns, avg);
         iv_box_t box = cell_box(c, cl);
         if (apex_line(c, &box, cl->d, sg_i, (int)lc[i].ns, avg, 0, e))
             continue;
@@ -1041,10 +1050,8 @@ static int place_apexes(ctx_t *c, const loop_cell_t *lc, size_t n, const seg_t *
             continue;
         const seg_t *sg_i = segs + lc[i].off;
         int ns = (int)lc[i].ns;
-        double avg[3] = {0, 0, 0}, e[2][3];
-        for (int j = 0; j < ns; j++)
-            for (int a = 0; a < 3; a++)
-                avg[a] += c->xs[sg_i[j].from].p[a] / ns;
+        double avg[3], e[2][3];
+        loop_average(c, sg_i, ns, avg);
         iv_box_t box = cell_box(c, cl);
         for (int m = 1; m < 3 + APEX_PULLS * ns && !cl->has_apex; m++) {
             if (apex_line(c, &box, cl->d, sg_i, ns, avg, m, e))
@@ -1136,10 +1143,73 @@ static int add_failure(ctx_t *c, const cell_t *cl, msh_reason_t why)
     msh_mesh_t *o = c->out;
     if (reserve(&o->failures, &c->cap_fail, o->n_failures, 1, sizeof *o->failures))
         return nomem(c);
+    if (reserve(&c->fail_cell, &c->cap_fail_cell, o->n_failures, 1, sizeof *c->fail_cell))
+        return nomem(c);
+    c->fail_cell[o->n_failures] = (int32_t)(cl - c->cells);
     msh_failure_t *f = &o->failures[o->n_failures++];
     f->box = cell_box(c, cl);
     f->depth = cl->level;
     f->reason = why;
+    return 0;
+}
+
+static size_t region_root(size_t *parent, size_t i)
+{
+    while (parent[i] != i)
+        i = parent[i] = parent[parent[i]];
+    return i;
+}
+
+/* Gather the failed cells into regions: union-find over each failed cell's 26
+ * neighbours at its level (find gives the leaf there, or a finer internal node,
+ * whose failed leaves reach this cell through their own neighbours). */
+static int failure_regions(ctx_t *c)
+{
+    msh_mesh_t *o = c->out;
+    size_t n = o->n_failures;
+    int32_t *of_cell = malloc(c->n_cells * sizeof *of_cell); /* cell -> failure, -1 */
+    size_t *parent = malloc((n ? n : 1) * sizeof *parent);
+    if (!of_cell || !parent) {
+        free(of_cell), free(parent);
+        return nomem(c);
+    }
+    for (size_t i = 0; i < c->n_cells; i++)
+        of_cell[i] = -1;
+    for (size_t f = 0; f < n; f++) {
+        of_cell[c->fail_cell[f]] = (int32_t)f;
+        parent[f] = f;
+    }
+    for (size_t f = 0; f < n; f++) {
+        const cell_t *cl = &c->cells[c->fail_cell[f]];
+        int64_t side = (int64_t)1 << cl->level;
+        for (int o27 = 0; o27 < 27; o27++) {
+            int64_t q[3] = {(int64_t)cl->pos[0] + o27 % 3 - 1, (int64_t)cl->pos[1] + o27 / 3 % 3 - 1,
+                            (int64_t)cl->pos[2] + o27 / 9 - 1};
+            if (o27 == 13 || q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= side ||
+                q[1] >= side || q[2] >= side)
+                continue;
+            uint32_t pos[3] = {(uint32_t)q[0], (uint32_t)q[1], (uint32_t)q[2]};
+            int32_t g = of_cell[find(c, cl->level, pos)];
+            if (g >= 0)
+                parent[region_root(parent, f)] = region_root(parent, (size_t)g);
+        }
+    }
+    /* number the regions in the order of their first failure */
+    size_t *number = malloc((n ? n : 1) * sizeof *number);
+    if (!number) {
+        free(of_cell), free(parent);
+        return nomem(c);
+    }
+    o->n_regions = 0;
+    for (size_t f = 0; f < n; f++)
+        number[f] = SIZE_MAX;
+    for (size_t f = 0; f < n; f++) {
+        size_t r = region_root(parent, f);
+        if (number[r] == SIZE_MAX)
+            number[r] = o->n_regions++;
+        o->failures[f].region = (uint32_t)number[r];
+    }
+    free(of_cell), free(parent), free(number);
     return 0;
 }
 
@@ -1340,6 +1410,8 @@ int msh_build(const tape_t *t, const iv_box_t *box, const msh_params_t *p, msh_m
         if (balance(&c))
             goto done;
     }
+    if (out->n_failures && failure_regions(&c))
+        goto done;
     count_leaves(&c);
     rc = out->n_failures ? 1 : 0;
 done:
@@ -1352,6 +1424,7 @@ done:
     free(c.xs);
     free(c.mark);
     free(c.queue);
+    free(c.fail_cell);
     if (rc < 0) {
         msh_free(out);
     } else {

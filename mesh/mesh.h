@@ -74,6 +74,9 @@ typedef struct msh_failure {
     iv_box_t box;
     int depth;
     msh_reason_t reason;
+    uint32_t region; /* 0 .. n_regions - 1: failed cells that touch (a face, an edge
+                        or a corner), transitively, share a region (a singular
+                        point makes one); numbered in the order of their first cell */
 } msh_failure_t;
 
 typedef struct msh_stats {
@@ -101,7 +104,7 @@ typedef struct msh_mesh {
     int *cell_depth;
     size_t n_cells;
     msh_failure_t *failures;
-    size_t n_failures;
+    size_t n_failures, n_regions;
     iv_box_t box;           /* the mesh box */
     msh_stats_t stats;
 } msh_mesh_t;

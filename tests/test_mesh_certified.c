@@ -12,8 +12,9 @@
  *    root of f within 1e-12 of the box's size of every vertex (f has
  *    opposite certified signs at two points that close on either side).
  *  - Singular surfaces (chubs: 12 singular points) are not certified:
- *    msh_build returns 1, the failed cells all lie near the singular points
- *    and every singular point has failed cells next to it.
+ *    msh_build returns 1, the failed cells all lie near the singular points,
+ *    every singular point has failed cells next to it, and they make 12
+ *    regions of touching cells.
  *  - Every scene file: msh_build certifies it or lists failures; a certified
  *    mesh is an embedded, consistently oriented manifold whose boundary edges
  *    (if any) lie on the faces of the mesh box, and when closed it has the
@@ -323,6 +324,7 @@ static void test_singular_surface_reported(void **state)
     ivoct_error_t err;
     assert_int_equal(msh_build(t, &box, &p, &m, &err), 1);
     assert_true(m.n_failures > 0);
+    assert_int_equal(m.n_regions, 12); /* one per singular point */
     double s = sqrt(0.5), sing[12][3];
     int n = 0;
     for (int zero = 0; zero < 3; zero++)

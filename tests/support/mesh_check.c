@@ -514,51 +514,6 @@ static int cmp_u32(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* the lists sorted here are mostly a handful of entries: insertion sort, qsort beyond */
-static void sort_u64(uint64_t *v, size_t n)
-{
-    if (n > 16) {
-        qsort(v, n, sizeof *v, cmp_u64);
-        return;
-    }
-    for (size_t i = 1; i < n; i++) {
-        uint64_t x = v[i];
-        size_t j = i;
-        for (; j > 0 && v[j - 1] > x; j--)
-            v[j] = v[j - 1];
-        v[j] = x;
-    }
-}
-
-static void sort_size(size_t *v, size_t n)
-{
-    if (n > 16) {
-        qsort(v, n, sizeof *v, cmp_size);
-        return;
-    }
-    for (size_t i = 1; i < n; i++) {
-        size_t x = v[i], j = i;
-        for (; j > 0 && v[j - 1] > x; j--)
-            v[j] = v[j - 1];
-        v[j] = x;
-    }
-}
-
-static void sort_u32(uint32_t *v, size_t n)
-{
-    if (n > 16) {
-        qsort(v, n, sizeof *v, cmp_u32);
-        return;
-    }
-    for (size_t i = 1; i < n; i++) {
-        uint32_t x = v[i];
-        size_t j = i;
-        for (; j > 0 && v[j - 1] > x; j--)
-            v[j] = v[j - 1];
-        v[j] = x;
-    }
-}
-
 static uint32_t uf_find(uint32_t *par, uint32_t x)
 {
     while (par[x] != x) {
@@ -676,7 +631,7 @@ static int count_edges(const uint32_t *tris, size_t nt, size_t nv, uint32_t *par
     unshift(off, nv);
     for (size_t v = 0; v < nv; v++) {
         size_t s = off[v], e = off[v + 1];
-        sort_u64(he + s, e - s);
+        qsort(he + s, e - s, sizeof *he, cmp_u64);
         for (size_t a = s; a < e;) {
             size_t b = a + 1;
             while (b < e && he[b] >> 32 == he[a] >> 32)
@@ -780,7 +735,7 @@ static int count_vertex_stars(const uint32_t *tris, size_t nt, size_t nv, mc_rep
         size_t nu = 0;
         if (!bad) {
             memcpy(uq, ep, 2 * deg * sizeof *uq);
-            sort_u32(uq, 2 * deg);
+            qsort(uq, 2 * deg, sizeof *uq, cmp_u32);
             for (size_t i = 0; i < 2 * deg;) {
                 size_t j = i + 1;
                 while (j < 2 * deg && uq[j] == uq[i])
@@ -893,7 +848,7 @@ static size_t tri_buckets(const grid_t *gr, const double *pts, const uint32_t *t
             for (uint32_t x = c0[0]; x <= c1[0]; x++)
                 b[m++] = bucket_of(gr, x, y, z);
     if (m > 1) {
-        sort_size(b, m);
+        qsort(b, m, sizeof *b, cmp_size);
         size_t u = 1;
         for (size_t i = 1; i < m; i++)
             if (b[i] != b[u - 1])

@@ -631,6 +631,8 @@ int oct_plan_build(oct_plan_t *pl, const size_t *which, size_t n, ivoct_error_t 
         memset(&w->st, 0, sizeof w->st);
         w->max_diagonal2 = 0;
         e->base = build_subtree(w, w->wave, &e->pool, e->cell, &e->tape, e->single_use);
+        if (pool_morton(w->b, &e->pool, e->base, 0))
+            e->base = -1;
         pool_shrink(w->b, &e->pool);
         e->st = w->st;
         e->max_diagonal2 = w->max_diagonal2;
@@ -707,6 +709,15 @@ int oct_plan_put(oct_plan_t *pl, size_t i, const oct_subtree_t *in, ivoct_error_
             memcpy(p->slabs, in->slabs, in->n_leaves * sizeof *p->slabs);
     }
     p->nl = in->n_leaves;
+    /* another process's subtree: its leaves may come in any order */
+    int morton = pool_morton(&pl->b, p, (long)in->base, 1);
+    if (morton == -2) {
+        pool_free(&pl->b, p);
+        ivoct_error_set(err, "subtree %zu is corrupt", i);
+        return -1;
+    }
+    if (morton)
+        return plan_failed(pl, err) ? -1 : (ivoct_error_set(err, "out of memory"), -1);
     e->base = (long)in->base;
     e->st = in->stats;
     e->max_diagonal2 = in->max_diagonal2;

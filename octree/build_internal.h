@@ -151,9 +151,18 @@ long pool_leaf(build_t *b, pool_t *p, cell_t c, const decision_t *d);
 void pool_free(build_t *b, pool_t *p);
 /* Give back the pool's unused capacity (a finished subtree). */
 void pool_shrink(build_t *b, pool_t *p);
+/* Put the leaves (and slabs) of a subtree's pool in Morton order, the order
+ * of a depth-first walk from its children's block `base` (children 0..7),
+ * renumbering the leaf words; the leaf arrays end exactly nl long.  0; -1
+ * with the build failed (out of memory; the pool unchanged); -2 when the
+ * walk reaches more or fewer leaves than the pool holds, or goes deeper than
+ * a tree can, or (untrusted: a pool from oct_plan_put) reaches a leaf twice:
+ * the pool is corrupt, and now unusable (free it). */
+int pool_morton(build_t *b, pool_t *p, long base, int untrusted);
 /* The tree from the top pool and the subtrees' pools (each subtree's block
- * goes into node `slot` of the top pool), leaves in Morton order; the
- * subtrees' pools are freed on the way.  0, or -1 with the build failed. */
+ * goes into node `slot` of the top pool; each pool in Morton order, by
+ * pool_morton), leaves in Morton order; the subtrees' pools are freed on the
+ * way.  0, or -1 with the build failed. */
 int pool_assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct_tree_t *tree);
 
 /* ---- chain.c ---- */

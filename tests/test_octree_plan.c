@@ -77,8 +77,30 @@ static void check_scene(const char *name, int chain)
         assert_int_equal(oct_plan_get(plan[i % PARTS], i, &st), 0);
         assert_int_equal(oct_plan_get(plan[(i + 1) % PARTS], i, &st), -1);
         assert_int_equal(oct_plan_get(plan[i % PARTS], i, &st), 0);
+        /* every other subtree with its leaves in reverse order: a subtree from
+           elsewhere may come in any order, and the tree is the same */
+        oct_node_t *rn = NULL;
+        oct_leaf_t *rl = NULL;
+        oct_slab_t *rs = NULL;
+        if (i % 2 && st.n_leaves > 1) {
+            uint32_t nl = st.n_leaves;
+            rn = malloc(st.n_nodes * sizeof *rn);
+            rl = malloc(nl * sizeof *rl);
+            rs = st.slabs ? malloc(nl * sizeof *rs) : NULL;
+            for (uint32_t j = 0; j < st.n_nodes; j++)
+                rn[j] = OCT_NODE_KIND(st.nodes[j]) == OCT_LEAF
+                            ? OCT_NODE(OCT_LEAF, nl - 1 - OCT_NODE_VALUE(st.nodes[j]))
+                            : st.nodes[j];
+            for (uint32_t j = 0; j < nl; j++) {
+                rl[j] = st.leaves[nl - 1 - j];
+                if (rs)
+                    rs[j] = st.slabs[nl - 1 - j];
+            }
+            st.nodes = rn, st.leaves = rl, st.slabs = rs;
+        }
         if (oct_plan_put(all, i, &st, &err))
             fail_msg("%s: oct_plan_put: %s", name, err.msg);
+        free(rn), free(rl), free(rs);
     }
     if (n > 0) {
         /* a missing subtree is an error, a corrupt one is refused */
@@ -95,6 +117,19 @@ static void check_scene(const char *name, int chain)
         oct_subtree_t corrupt = st;
         corrupt.nodes = bad;
         assert_int_not_equal(oct_plan_put(empty, 0, &corrupt, &err), 0);
+        /* valid indices, but a leaf reached twice and another never */
+        memcpy(bad, st.nodes, st.n_nodes * sizeof *bad);
+        uint32_t first = UINT32_MAX, second = UINT32_MAX;
+        for (uint32_t j = 0; j < st.n_nodes && second == UINT32_MAX; j++)
+            if (OCT_NODE_KIND(bad[j]) == OCT_LEAF)
+                *(first == UINT32_MAX ? &first : &second) = j;
+        if (second != UINT32_MAX) {
+            bad[second] = bad[first];
+            ivoct_error_clear(&err);
+            assert_int_not_equal(oct_plan_put(empty, 0, &corrupt, &err), 0);
+            assert_non_null(strstr(err.msg, "corrupt"));
+            assert_int_equal(oct_plan_has(empty, 0), 0);
+        }
         free(bad);
         oct_plan_free(empty);
     }

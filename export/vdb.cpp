@@ -8,6 +8,10 @@
 #include <memory>
 #include <ostream>
 #include <streambuf>
+#include <string>
+#include <system_error>
+#include <thread>
+#include <vector>
 
 #include <openvdb/openvdb.h>
 #include <openvdb/io/File.h>
@@ -50,6 +54,71 @@ private:
     FILE *f_;
 };
 
+
+// A std::ostream onto a std::string: one chunk of leaf buffers, written by a
+// worker and copied into the file in order.
+class StringBuf : public std::streambuf {
+public:
+    std::string s;
+
+protected:
+    int_type overflow(int_type c) override
+    {
+        if (!traits_type::eq_int_type(c, traits_type::eof()))
+            s.push_back(traits_type::to_char_type(c));
+        return traits_type::not_eof(c);
+    }
+    std::streamsize xsputn(const char *p, std::streamsize n) override
+    {
+        s.append(p, (size_t)n);
+        return n;
+    }
+};
+
+// A FloatGrid (sharing the tree, metadata and transform of another) whose leaf
+// buffers are written over threads.  Writing the buffers (Blosc/LZ4 of every
+// leaf node, one node after another) was most of OpenVDB's write, on one
+// thread.  Grid::writeBuffers writes LeafNode::writeBuffers of every leaf node
+// in the tree's order (a FloatGrid has no multi-pass I/O) and each depends only
+// on the node and the stream's compression flags and background: the same
+// calls here, each chunk of nodes into a string by a worker, with the flags
+// and background of the file's stream, then copied out in order, a window of
+// chunks at a time (the memory of a window, not of a grid) — the same bytes.
+class ThreadedWriteGrid final : public FloatGrid {
+public:
+    ThreadedWriteGrid(FloatGrid &g, int threads)
+        : FloatGrid(g, openvdb::ShallowCopy()), threads_(threads)
+    {
+    }
+    void writeBuffers(std::ostream &os) const override
+    {
+        using Leaf = openvdb::FloatTree::LeafNodeType;
+        std::vector<const Leaf *> leaves;
+        tree().getNodes(leaves);  // the order of Tree::writeBuffers: the tree's
+        const uint32_t compression = openvdb::io::getDataCompression(os);
+        const void *bg = openvdb::io::getGridBackgroundValuePtr(os);
+        const bool half = saveFloatAsHalf();
+        constexpr size_t chunk = 32, window = 32 * chunk;  // a window: at most ~2 MB
+        std::vector<StringBuf> bufs(window / chunk);
+        for (size_t w0 = 0; w0 < leaves.size() && os; w0 += window) {
+            const size_t n = std::min(window, leaves.size() - w0);
+            parallel_chunks(n, chunk, threads_, [&](size_t s, size_t e, int) {
+                StringBuf &b = bufs[s / chunk];
+                b.s.clear();
+                std::ostream o(&b);
+                openvdb::io::setDataCompression(o, compression);
+                openvdb::io::setGridBackgroundValuePtr(o, bg);
+                for (size_t i = s; i < e; i++)
+                    leaves[w0 + i]->writeBuffers(o, half);
+            });
+            for (size_t c = 0; c * chunk < n; c++)
+                os.write(bufs[c].s.data(), (std::streamsize)bufs[c].s.size());
+        }
+    }
+
+private:
+    int threads_;
+};
 
 void init()
 {
@@ -126,22 +195,58 @@ void fill_inside(const oct_tree_t *t, const Frame &fr, FloatGrid &g, float bg, u
     }
 }
 
-// The narrow-band level set; see export.h.
+// The surface grid and the narrow-band level set (see export.h): surface set
+// to the surface grid.
 FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr,
-                        const FloatGrid &surface)
+                        FloatGrid::Ptr &surface_out)
 {
     const float bg = (float)(EXP_SDF_HALF_WIDTH * fr.max_h());
     FloatGrid::Ptr g = FloatGrid::create(bg);
     g->setName("sdf");
     g->setGridClass(openvdb::GRID_LEVEL_SET);
     g->setTransform(fr.xf->copy());
-    fill_inside(t, fr, *g, bg, 0, 0, 0, 0, 0);
 
+    // The inside cells (a walk of the octree into the sdf tree) and the
+    // surface grid with its dilated band (into their own trees) share nothing
+    // until the union: one thread each when the build had two or more, the
+    // walk and surface_grid being serial (the dilation is threaded by OpenVDB).
+    std::exception_ptr inside_failed;
+    auto inside_task = [&] {
+        try {
+            fill_inside(t, fr, *g, bg, 0, 0, 0, 0, 0);
+        } catch (...) {
+            inside_failed = std::current_exception();
+        }
+    };
+    std::thread inside;
+    if (writer_threads(t, 2) > 1) {
+        try {
+            inside = std::thread(inside_task);
+        } catch (const std::system_error &) {  // no thread: in turn
+        }
+    }
+    if (!inside.joinable())
+        inside_task();
+    struct Join {
+        std::thread &th;
+        ~Join()
+        {
+            if (th.joinable())
+                th.join();
+        }
+    } join{inside};  // also when the code below throws
+
+    surface_out = surface_grid(t, fr);
+    const FloatGrid &surface = *surface_out;
     // the band: the surface leaves dilated by the half width, within the box
     openvdb::MaskTree band(surface.tree(), false, openvdb::TopologyCopy());
     openvdb::tools::dilateActiveValues(band, EXP_SDF_HALF_WIDTH, openvdb::tools::NN_FACE_EDGE_VERTEX,
                                        openvdb::tools::EXPAND_TILES);
     band.clip(CoordBBox(Coord(0), Coord((int32_t)fr.n - 1)));
+    if (inside.joinable())
+        inside.join();
+    if (inside_failed)
+        std::rethrow_exception(inside_failed);
     g->tree().topologyUnion(band);
     g->tree().voxelizeActiveTiles();
 
@@ -156,24 +261,35 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
     std::vector<std::unique_ptr<Workspace>> ws;
     for (int w = 0; w < threads; w++)
         ws.push_back(std::make_unique<Workspace>(tape));
+    const openvdb::FloatTree &stree = surface.tree();
     parallel_chunks(n_nodes, chunk, threads, [&](size_t s, size_t e, int w) {
-        auto sacc = surface.getConstAccessor();  // an accessor per thread: they cache
-        constexpr size_t N = openvdb::FloatTree::LeafNodeType::SIZE;
+        using Leaf = openvdb::FloatTree::LeafNodeType;
+        constexpr size_t N = Leaf::SIZE;
         std::vector<iv_box_t> boxes(N);
         std::vector<iv_grad_t> out(N);
         std::vector<openvdb::Index> offset(N);
         std::vector<signed char> sign(N);  // 0: in a surface leaf
+        double p[3][Leaf::DIM];            // voxel centres along each axis
         for (size_t i = s; i < e; i++) {
-            auto &node = nodes.leaf(i);
+            Leaf &node = nodes.leaf(i);
+            const Coord o = node.origin();
+            // the surface grid's voxels here: its leaf node of the same origin
+            // (both trees have the same nodes), else one tile covers the node
+            const Leaf *sl = stree.probeConstLeaf(o);
+            const bool s_tile_on = !sl && stree.isValueOn(o);
+            for (int a = 0; a < 3; a++)
+                for (openvdb::Index k = 0; k < Leaf::DIM; k++)
+                    p[a][k] = fr.lo[a] + ((double)(o[a] + (int32_t)k) + 0.5) * fr.h[a];
+            const float *v = node.buffer().data();
             size_t m = 0;
-            for (auto it = node.cbeginValueOn(); it; ++it, m++) {
-                const Coord c = it.getCoord();
-                offset[m] = it.pos();
-                sign[m] = sacc.isValueOn(c) ? 0 : *it < 0 ? -1 : 1;
-                double p[3];
-                for (int a = 0; a < 3; a++)
-                    p[a] = fr.lo[a] + ((double)c[a] + 0.5) * fr.h[a];
-                boxes[m] = iv_box_t{iv_point(p[0]), iv_point(p[1]), iv_point(p[2])};
+            for (auto it = node.getValueMask().beginOn(); it; ++it, m++) {
+                const openvdb::Index n = it.pos();  // (x << 6) | (y << 3) | z
+                offset[m] = n;
+                const bool in_surface = sl ? sl->isValueOn(n) : s_tile_on;
+                sign[m] = in_surface ? 0 : v[n] < 0 ? -1 : 1;
+                boxes[m] = iv_box_t{iv_point(p[0][n >> 2 * Leaf::LOG2DIM]),
+                                    iv_point(p[1][(n >> Leaf::LOG2DIM) & (Leaf::DIM - 1)]),
+                                    iv_point(p[2][n & (Leaf::DIM - 1)])};
             }
             tape_eval_grad(tape, ws[(size_t)w]->ws, m, boxes.data(), out.data());
             for (size_t k = 0; k < m; k++) {
@@ -214,10 +330,12 @@ void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *s
 {
     init();
     Frame fr(tree);
-    FloatGrid::Ptr surface = surface_grid(tree, fr);
-    FloatGrid::Ptr sdf = sdf_grid(tree, tape, fr, *surface);
+    FloatGrid::Ptr surface;
+    FloatGrid::Ptr sdf = sdf_grid(tree, tape, fr, surface);
     openvdb::MetaMap m = metadata(tree, src);
-    openvdb::GridPtrVec grids{surface, sdf};
+    const int threads = writer_threads(tree, (size_t)1 << 20);
+    openvdb::GridPtrVec grids{std::make_shared<ThreadedWriteGrid>(*surface, threads),
+                              std::make_shared<ThreadedWriteGrid>(*sdf, threads)};
     for (auto &g : grids) {
         for (auto it = m.beginMeta(); it != m.endMeta(); ++it)
             g->insertMeta(it->first, *it->second);
@@ -237,8 +355,8 @@ Mesh vdb_mesh(const oct_tree_t *tree, const tape_t *tape)
 {
     init();
     Frame fr(tree);
-    FloatGrid::Ptr surface = surface_grid(tree, fr);
-    FloatGrid::Ptr sdf = sdf_grid(tree, tape, fr, *surface);
+    FloatGrid::Ptr surface;
+    FloatGrid::Ptr sdf = sdf_grid(tree, tape, fr, surface);
     surface.reset();
     std::vector<openvdb::Vec3s> points;
     std::vector<openvdb::Vec3I> tris;

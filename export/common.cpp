@@ -1,5 +1,6 @@
-// ivoct export/ — the C entry points, output files, .ply and .obj meshes, and
-// recognising files for `ivoct info`.  Includes neither VTK nor OpenVDB.
+// ivoct export/ — the C entry points, output files, the LZ4 blocks of the VTK XML
+// writers, .ply and .obj meshes, and recognising files for `ivoct info`.  Includes
+// neither VTK's data objects nor OpenVDB: only the LZ4 library VTK links.
 #include <cerrno>
 #include <csignal>
 #include <ctime>
@@ -13,6 +14,10 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
+#include <algorithm>
+
+#include <vtk_lz4.h>
 
 #include "internal.hpp"
 
@@ -46,6 +51,53 @@ void Output::commit()
     open_ = false;
     if (io_commit(&f_, &err))  // removes the temporary on failure
         throw Error(err.msg);
+}
+
+// ---- LZ4 blocks (internal.hpp) --------------------------------------------------------
+namespace {
+constexpr int LZ4_ACCELERATION = 5;   // vtkLZ4DataCompressor at the writer's level 5: 10 - 5
+constexpr size_t PARALLEL_BLOCKS = 8; // fewer blocks than this: one thread
+}  // namespace
+
+Lz4Blocks lz4_blocks(size_t n, int threads, const BlockBytes &bytes, const char *path)
+{
+    const size_t nblocks = n / LZ4_BLOCK + (n % LZ4_BLOCK ? 1 : 0);
+    const size_t bound = (size_t)LZ4_COMPRESSBOUND((int)LZ4_BLOCK);
+    Lz4Blocks z;
+    z.header.resize(3 + nblocks);
+    z.header[0] = nblocks;
+    z.header[1] = LZ4_BLOCK;
+    z.header[2] = n % LZ4_BLOCK;
+    // each block into its own slot of the bound's size, then moved down end to end
+    z.data.reset(new char[nblocks ? nblocks * bound : 1]);
+    if (nblocks < PARALLEL_BLOCKS)
+        threads = 1;
+    std::vector<std::unique_ptr<unsigned char[]>> scratch((size_t)threads);
+    for (auto &s : scratch)
+        s.reset(new unsigned char[LZ4_BLOCK]);
+    parallel_chunks(nblocks, 1, threads, [&](size_t b, size_t, int worker) {
+        const size_t at = b * LZ4_BLOCK, size = std::min(LZ4_BLOCK, n - at);
+        const void *in = bytes(at, size, scratch[(size_t)worker].get());
+        const int cs = LZ4_compress_fast(static_cast<const char *>(in), z.data.get() + b * bound,
+                                         (int)size, (int)bound, LZ4_ACCELERATION);
+        if (cs <= 0)
+            throw Error(std::string("cannot write ") + path + ": LZ4 failed");
+        z.header[3 + b] = (uint64_t)cs;
+    });
+    for (size_t b = 0; b < nblocks; b++) {
+        if (z.size != b * bound)
+            std::memmove(z.data.get() + z.size, z.data.get() + b * bound, z.header[3 + b]);
+        z.size += z.header[3 + b];
+    }
+    return z;
+}
+
+Lz4Blocks lz4_blocks(const void *data, size_t n, int threads, const char *path)
+{
+    const unsigned char *p = static_cast<const unsigned char *>(data);
+    return lz4_blocks(n, threads,
+                      [p](size_t at, size_t, unsigned char *) -> const void * { return p + at; },
+                      path);
 }
 
 std::vector<MetaItem> meta_strings(const oct_source_t *src)

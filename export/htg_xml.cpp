@@ -5,11 +5,9 @@
 // with UInt64 headers and its LZ4 compressor, byte for byte: the same XML (its
 // attributes, indentation and number formatting: vtkNumberToString, the
 // shortest digits that read back), the same arrays in the same order, each
-// one's data cut into blocks of 32768 bytes compressed on their own
-// (LZ4_compress_fast at vtkLZ4DataCompressor's acceleration for the writer's
-// default compression level 5), the compressed-data header (UInt64 block
-// count, block size, last block size, compressed sizes) base64-encoded, then
-// the compressed blocks base64-encoded as one stream.  What this writer does
+// one's data compressed as VTK does (lz4_blocks, internal.hpp), the
+// compressed-data header base64-encoded, then the compressed blocks
+// base64-encoded as one stream.  What this writer does
 // differently is only how: the blocks of an array are compressed by threads,
 // the base64 is encoded by threads into big buffers, and the output goes to
 // the file in a few large writes.
@@ -35,7 +33,6 @@
 #include <vector>
 
 #include <vtkNumberToString.h>
-#include <vtk_lz4.h>
 
 #include "internal.hpp"
 
@@ -47,10 +44,6 @@ namespace ivexp {
 namespace {
 
 enum { CLASS_SURFACE = 3, CLASS_SPLIT = 4 };
-
-constexpr size_t BLOCK = 32768;       // vtkXMLWriter's default BlockSize
-constexpr int LZ4_ACCELERATION = 5;   // vtkLZ4DataCompressor at the writer's level 5: 10 - 5
-constexpr size_t PARALLEL_BLOCKS = 8; // fewer blocks than this: one thread
 
 struct HtgNode {
     uint32_t node;  // index in tree->nodes
@@ -119,38 +112,6 @@ void b64_encode(const unsigned char *in, size_t n, char *out)
     }
 }
 
-// ---- ranges (vtkDataArray::GetRange: NaN skipped; none: VTK_DOUBLE_MAX, VTK_DOUBLE_MIN) --
-struct Range {
-    double lo = 1.0e+299, hi = -1.0e+299;
-    void add(double v)
-    {
-        if (std::isnan(v))
-            return;
-        lo = v < lo ? v : lo;
-        hi = v > hi ? v : hi;
-    }
-};
-
-template <class T> Range range_of(const T *v, size_t n)
-{
-    Range r;
-    if (n == 0)
-        return r;
-    T lo = v[0], hi = v[0];
-    bool any = false;
-    for (size_t i = 0; i < n; i++) {
-        if (v[i] != v[i])  // NaN
-            continue;
-        if (!any)
-            lo = hi = v[i], any = true;
-        lo = v[i] < lo ? v[i] : lo;
-        hi = v[i] > hi ? v[i] : hi;
-    }
-    if (any)
-        r.lo = (double)lo, r.hi = (double)hi;
-    return r;
-}
-
 // ---- bits ---------------------------------------------------------------------------
 // vtkBitArray's layout: bit i in byte i / 8, most significant bit first; the
 // unused bits of the last byte 0.
@@ -179,6 +140,7 @@ struct Bits {
         if (n) {
             r.lo = ones == n ? 1 : 0;
             r.hi = ones ? 1 : 0;
+            r.any = true;
         }
         return r;
     }
@@ -228,39 +190,17 @@ private:
     // The compressed data of n bytes: base64 of the header, base64 of the blocks.
     void binary(const unsigned char *p, size_t n)
     {
-        const size_t nblocks = n / BLOCK + (n % BLOCK ? 1 : 0);
-        const size_t bound = (size_t)LZ4_COMPRESSBOUND((int)BLOCK);
-        std::vector<uint64_t> header(3 + nblocks);
-        header[0] = nblocks;
-        header[1] = BLOCK;
-        header[2] = n % BLOCK;
-        std::unique_ptr<char[]> comp(new char[nblocks ? nblocks * bound : 1]);
-        const int threads = nblocks >= PARALLEL_BLOCKS ? threads_ : 1;
-        parallel_chunks(nblocks, 1, threads, [&](size_t b, size_t, int) {
-            const size_t size = std::min(BLOCK, n - b * BLOCK);
-            const int cs = LZ4_compress_fast(reinterpret_cast<const char *>(p + b * BLOCK),
-                                             comp.get() + b * bound, (int)size, (int)bound,
-                                             LZ4_ACCELERATION);
-            if (cs <= 0)
-                throw Error(std::string("cannot write ") + out_.path() + ": LZ4 failed");
-            header[3 + b] = (uint64_t)cs;
-        });
-        // the blocks end to end (each moves down, in order)
-        size_t total = 0;
-        for (size_t b = 0; b < nblocks; b++) {
-            if (total != b * bound)
-                std::memmove(comp.get() + total, comp.get() + b * bound, header[3 + b]);
-            total += header[3 + b];
-        }
-        const size_t hbytes = header.size() * sizeof(uint64_t);
+        Lz4Blocks z = lz4_blocks(p, n, threads_, out_.path());
+        const size_t total = z.size;
+        const size_t hbytes = z.header_bytes();
         size_t at = text_.size();
         text_.resize(at + b64_size(hbytes));
-        b64_encode(reinterpret_cast<const unsigned char *>(header.data()), hbytes, &text_[at]);
+        b64_encode(reinterpret_cast<const unsigned char *>(z.header.data()), hbytes, &text_[at]);
         const size_t size = b64_size(total);
         if (size < ((size_t)1 << 20)) {
             at = text_.size();
             text_.resize(at + size);
-            b64_encode(reinterpret_cast<const unsigned char *>(comp.get()), total, &text_[at]);
+            b64_encode(reinterpret_cast<const unsigned char *>(z.data.get()), total, &text_[at]);
             return;
         }
         // a big one: encoded by threads (pieces of a multiple of 3 bytes) into its
@@ -271,10 +211,10 @@ private:
         parallel_chunks(pieces, 1, std::min(threads_, (int)std::min(pieces, (size_t)64)),
                         [&](size_t k, size_t, int) {
                             const size_t s = k * piece, m = std::min(piece, total - s);
-                            b64_encode(reinterpret_cast<const unsigned char *>(comp.get()) + s, m,
+                            b64_encode(reinterpret_cast<const unsigned char *>(z.data.get()) + s, m,
                                        enc.get() + s / 3 * 4);
                         });
-        comp.reset();
+        z.data.reset();
         flush();
         out_.write(enc.get(), size);
     }

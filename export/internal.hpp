@@ -10,6 +10,8 @@
 #include <cstdint>
 #include <cstdio>
 #include <exception>
+#include <functional>
+#include <memory>
 #include <mutex>
 #include <new>
 #include <stdexcept>
@@ -87,7 +89,7 @@ void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *s
 Mesh vdb_mesh(const oct_tree_t *tree, const tape_t *tape);
 void vdb_info(const char *path, FILE *out);
 
-// vtk.cpp
+// vtu_xml.cpp (.vtu), htg_xml.cpp (.htg), vtk.cpp (the rest)
 void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *path);
 void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
                    const char *path);
@@ -159,6 +161,70 @@ template <class F> void parallel_chunks(size_t n, size_t chunk, int threads, F &
         t.join();
     if (failure)
         std::rethrow_exception(failure);
+}
+
+// ---- the binary data of VTK's XML files (htg_xml.cpp, vtu_xml.cpp) -------------------
+// What vtkXMLWriter (VTK 9.1) writes for an array of n bytes with UInt64 headers
+// and vtkLZ4DataCompressor: the bytes cut into blocks of LZ4_BLOCK, each
+// compressed on its own (LZ4_compress_fast at the acceleration vtkLZ4DataCompressor
+// uses for the writer's default level 5), behind the compressed-data header
+//   block count, block size, size of the last block (0 when it is full), and the
+//   compressed size of each block.
+// The writers here compress the blocks of an array over threads; a block's
+// bytes do not depend on the others', so the data are the same for any count.
+constexpr size_t LZ4_BLOCK = 32768;  // vtkXMLWriter's default BlockSize
+
+struct Lz4Blocks {
+    std::vector<uint64_t> header;  // the compressed-data header (host order: little-endian)
+    std::unique_ptr<char[]> data;  // the compressed blocks end to end
+    size_t size = 0;               // bytes in data
+    size_t header_bytes() const { return header.size() * sizeof(uint64_t); }
+    size_t bytes() const { return header_bytes() + size; }
+};
+
+// The bytes [at, at + n) of an array (n <= LZ4_BLOCK, one block): a pointer into
+// the array, or into `scratch` (LZ4_BLOCK bytes, the calling thread's own) after
+// writing them there, for an array made block by block and never held whole.
+using BlockBytes = std::function<const void *(size_t at, size_t n, unsigned char *scratch)>;
+
+// The n bytes that bytes() gives, compressed by `threads` threads (one below
+// 8 blocks).  path: for the error message.
+Lz4Blocks lz4_blocks(size_t n, int threads, const BlockBytes &bytes, const char *path);
+// The same for n bytes held at data.
+Lz4Blocks lz4_blocks(const void *data, size_t n, int threads, const char *path);
+
+// vtkDataArray::GetRange of one component: the least and greatest value, NaN
+// skipped; without any value VTK_DOUBLE_MAX, VTK_DOUBLE_MIN.  Integers compare
+// as doubles: the conversion is monotone, so the extremes are the same.
+struct Range {
+    double lo = 1.0e+299, hi = -1.0e+299;
+    bool any = false;
+    void add(double v)
+    {
+        if (v != v)  // NaN
+            return;
+        if (!any) {
+            lo = hi = v, any = true;
+            return;
+        }
+        lo = v < lo ? v : lo;
+        hi = v > hi ? v : hi;
+    }
+    void add(const Range &r)
+    {
+        if (r.any) {
+            add(r.lo);
+            add(r.hi);
+        }
+    }
+};
+
+template <class T> Range range_of(const T *v, size_t n)
+{
+    Range r;
+    for (size_t i = 0; i < n; i++)
+        r.add((double)v[i]);
+    return r;
 }
 
 }  // namespace ivexp

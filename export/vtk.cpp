@@ -1,6 +1,6 @@
-// ivoct export/ — the VTK side: .vtu (surface leaves as voxels), .vtp meshes,
-// and reading them back (.htg and .phtg too) for `ivoct info`.  The .htg
-// itself is written by htg_xml.cpp, without VTK's writer.
+// ivoct export/ — the VTK side: .vtp meshes, and reading the VTK files back
+// (.vtu, .pvtu, .htg, .phtg, .vtp) for `ivoct info`.  The .vtu and the .htg
+// are written by vtu_xml.cpp and htg_xml.cpp, without VTK's writers.
 //
 // VTK writers are asked for a string (WriteToOutputString) which goes to the
 // file through io/io.h: one path for temporary names, devices and errors.
@@ -15,7 +15,6 @@
 
 #include <vtkCellArray.h>
 #include <vtkCellData.h>
-#include <vtkCellType.h>
 #include <vtkCommand.h>
 #include <vtkDoubleArray.h>
 #include <vtkFieldData.h>
@@ -33,7 +32,6 @@
 #include <vtkSignedCharArray.h>
 #include <vtkSmartPointer.h>
 #include <vtkStringArray.h>
-#include <vtkUnsignedCharArray.h>
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLHyperTreeGridReader.h>
 #include <vtkXMLPHyperTreeGridReader.h>
@@ -41,7 +39,6 @@
 #include <vtkXMLPolyDataReader.h>
 #include <vtkXMLPolyDataWriter.h>
 #include <vtkXMLUnstructuredGridReader.h>
-#include <vtkXMLUnstructuredGridWriter.h>
 
 #include "internal.hpp"
 
@@ -138,26 +135,6 @@ private:
 // ---- helpers --------------------------------------------------------------------------
 enum { CLASS_SURFACE = 3 };  // the .htg's class of a surface leaf (htg_xml.cpp)
 
-void add_field_data(vtkFieldData *fd, const oct_tree_t *tree, const oct_source_t *src)
-{
-    for (const MetaItem &m : meta_strings(src)) {
-        vtkNew<vtkStringArray> a;
-        a->SetName(m.key.c_str());
-        a->InsertNextValue(m.value);
-        fd->AddArray(a);
-    }
-    vtkNew<vtkDoubleArray> box;
-    box->SetName("box");
-    box->SetNumberOfValues(6);
-    for (int i = 0; i < 6; i++)
-        box->SetValue(i, tree->box[i]);
-    fd->AddArray(box);
-    vtkNew<vtkIntArray> depth;
-    depth->SetName("depth");
-    depth->InsertNextValue(tree->depth);
-    fd->AddArray(depth);
-}
-
 // The writer's output string itself (a protected member; GetOutputString
 // returns a copy of what may be hundreds of MB).
 struct OutputStringOf : vtkXMLWriterBase {
@@ -184,243 +161,9 @@ template <class Writer> void write_xml(Writer *w, vtkDataObject *data, const cha
     out.commit();
 }
 
-struct Corner {
-    uint32_t x, y, z;
-    bool operator<(const Corner &o) const
-    {
-        return z != o.z ? z < o.z : y != o.y ? y < o.y : x < o.x;
-    }
-    bool operator==(const Corner &o) const { return x == o.x && y == o.y && z == o.z; }
-};
-
-
-// Corner c of leaf i (VTK_VOXEL order: x fastest, then y, then z), in integer
-// coordinates of the max depth D.
-inline Corner leaf_corner(const oct_tree_t *tree, size_t i, int c)
-{
-    const oct_leaf_t &l = tree->leaves[i];
-    uint32_t ix, iy, iz;
-    int depth = oct_leaf_depth(&l);
-    oct_unmorton(oct_leaf_code(&l), depth, &ix, &iy, &iz);
-    uint32_t s = 1u << (tree->depth - depth);
-    return {(ix + (c & 1)) * s, (iy + (c >> 1 & 1)) * s, (iz + (c >> 2 & 1)) * s};
-}
-
-// The points of the .vtu: the distinct leaf corners in (z, y, x) order, written
-// into `points`, and for corner c of leaf i its index in them in conn[8 i + c].
-//
-// Up to depth 15 the corners are bucketed by z (one pass over the leaves), and
-// each z slice is sorted on its own by a radix sort of 64-bit words (y, x) << 32
-// | corner number: a slice fits in cache, and slices are independent, so they
-// go over the threads.  Deeper (or more than 2^32 corners), a comparison sort.
-void shared_points(const oct_tree_t *tree, vtkIdType *conn, vtkPoints *points)
-{
-    const size_t n = tree->n_leaves, m = 8 * n;
-    const int D = tree->depth, bits = D + 1;
-    auto coord = [tree, D](int axis, uint64_t i) {
-        return oct_coord(tree->box[2 * axis], tree->box[2 * axis + 1], i, D);
-    };
-    if (2 * bits + 32 > 64 || m > UINT32_MAX) {
-        std::vector<Corner> corners(m);
-        for (size_t i = 0; i < n; i++)
-            for (int c = 0; c < 8; c++)
-                corners[8 * i + c] = leaf_corner(tree, i, c);
-        std::vector<Corner> unique = corners;
-        std::sort(unique.begin(), unique.end());
-        unique.erase(std::unique(unique.begin(), unique.end()), unique.end());
-        for (size_t k = 0; k < m; k++)
-            conn[k] = (vtkIdType)(std::lower_bound(unique.begin(), unique.end(), corners[k]) -
-                                  unique.begin());
-        points->SetNumberOfPoints((vtkIdType)unique.size());
-        double *xyz = static_cast<double *>(points->GetVoidPointer(0));
-        for (size_t p = 0; p < unique.size(); p++) {
-            xyz[3 * p] = coord(0, unique[p].x);
-            xyz[3 * p + 1] = coord(1, unique[p].y);
-            xyz[3 * p + 2] = coord(2, unique[p].z);
-        }
-        return;
-    }
-    // leaf i's lowest corner and its size, in integer coordinates of depth D
-    auto anchor = [tree, D](size_t i, uint32_t a[3], uint32_t &size) {
-        const oct_leaf_t &l = tree->leaves[i];
-        const int depth = oct_leaf_depth(&l);
-        oct_unmorton(oct_leaf_code(&l), depth, &a[0], &a[1], &a[2]);
-        size = 1u << (D - depth);
-        for (int k = 0; k < 3; k++)
-            a[k] *= size;
-    };
-    const size_t n_slices = ((size_t)1 << D) + 1;
-    // the slices' extents in `entries` (a counting sort by z)
-    std::vector<size_t> start(n_slices + 1, 0);
-    for (size_t i = 0; i < n; i++) {
-        uint32_t a[3], s;
-        anchor(i, a, s);
-        start[(size_t)a[2] + 1] += 4;
-        start[(size_t)a[2] + s + 1] += 4;
-    }
-    for (size_t z = 0; z < n_slices; z++)
-        start[z + 1] += start[z];
-    std::unique_ptr<uint64_t[]> entries(new uint64_t[m]);
-    {
-        std::vector<size_t> fill(start.begin(), start.end() - 1);
-        for (size_t i = 0; i < n; i++) {
-            uint32_t a[3], s;
-            anchor(i, a, s);
-            for (uint32_t c = 0; c < 8; c++) {
-                const uint64_t x = a[0] + (c & 1) * s, y = a[1] + (c >> 1 & 1) * s;
-                const size_t z = (size_t)a[2] + (c >> 2 & 1) * s;
-                entries[fill[z]++] = (y << bits | x) << 32 | (uint64_t)(8 * i + c);
-            }
-        }
-    }
-    const int threads = writer_threads(tree, n_slices);
-    const size_t chunk = (n_slices + 64 * (size_t)threads - 1) / (64 * (size_t)threads);
-    // sort every slice, count its distinct corners
-    std::vector<size_t> first_point(n_slices + 1, 0);
-    parallel_chunks(n_slices, chunk, threads, [&](size_t z0, size_t z1, int) {
-        const int digit = 11;
-        std::vector<uint64_t> tmp;
-        std::vector<uint32_t> count((size_t)1 << digit);
-        for (size_t z = z0; z < z1; z++) {
-            uint64_t *e = entries.get() + start[z];
-            const size_t k = start[z + 1] - start[z];
-            if (k == 0)
-                continue;
-            tmp.resize(k);
-            uint64_t *from = e, *to = tmp.data();
-            for (int shift = 32; shift < 32 + 2 * bits; shift += digit) {  // LSD: stable
-                std::fill(count.begin(), count.end(), 0);
-                const uint64_t mask = ((uint64_t)1 << digit) - 1;
-                for (size_t j = 0; j < k; j++)
-                    count[(from[j] >> shift) & mask]++;
-                uint32_t sum = 0;
-                for (uint32_t &c : count) {
-                    const uint32_t v = c;
-                    c = sum;
-                    sum += v;
-                }
-                for (size_t j = 0; j < k; j++)
-                    to[count[(from[j] >> shift) & mask]++] = from[j];
-                std::swap(from, to);
-            }
-            if (from != e)
-                std::copy(from, from + k, e);
-            size_t distinct = 1;
-            for (size_t j = 1; j < k; j++)
-                distinct += (e[j] >> 32) != (e[j - 1] >> 32);
-            first_point[z + 1] = distinct;
-        }
-    });
-    for (size_t z = 0; z < n_slices; z++)
-        first_point[z + 1] += first_point[z];
-    points->SetNumberOfPoints((vtkIdType)first_point[n_slices]);
-    double *xyz = static_cast<double *>(points->GetVoidPointer(0));
-    // number the points, slice by slice from its first
-    const uint64_t lmask = ((uint64_t)1 << bits) - 1;
-    parallel_chunks(n_slices, chunk, threads, [&](size_t z0, size_t z1, int) {
-        for (size_t z = z0; z < z1; z++) {
-            const uint64_t *e = entries.get() + start[z];
-            const size_t k = start[z + 1] - start[z];
-            const double zc = coord(2, z);
-            size_t p = first_point[z] - 1;
-            for (size_t j = 0; j < k; j++) {
-                const uint64_t key = e[j] >> 32;
-                if (j == 0 || key != e[j - 1] >> 32) {
-                    p++;
-                    xyz[3 * p] = coord(0, key & lmask);
-                    xyz[3 * p + 1] = coord(1, key >> bits);
-                    xyz[3 * p + 2] = zc;
-                }
-                conn[(uint32_t)e[j]] = (vtkIdType)p;
-            }
-        }
-    });
-}
-
 }  // namespace
 
-// ---- .vtu -----------------------------------------------------------------------------
-void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *path)
-{
-    const size_t n = tree->n_leaves;
-    // corners in integer coordinates of the max depth, shared between neighbours:
-    // the points are the distinct corners in (z, y, x) order
-    vtkNew<vtkPoints> points;
-    points->SetDataTypeToDouble();
-    vtkNew<vtkIdTypeArray> offsets, connectivity;
-    offsets->SetNumberOfValues((vtkIdType)n + 1);
-    connectivity->SetNumberOfValues((vtkIdType)(8 * n));
-    for (size_t i = 0; i <= n; i++)
-        offsets->SetValue((vtkIdType)i, (vtkIdType)(8 * i));
-    shared_points(tree, connectivity->GetPointer(0), points);
-    vtkNew<vtkCellArray> cells;
-    cells->SetData(offsets, connectivity);
-    vtkNew<vtkUnsignedCharArray> types;
-    types->SetNumberOfValues((vtkIdType)n);
-    types->FillValue(VTK_VOXEL);
-
-    vtkNew<vtkUnstructuredGrid> ug;
-    ug->SetPoints(points);
-    ug->SetCells(types, cells);
-
-    vtkNew<vtkIntArray> depth;
-    vtkNew<vtkDoubleArray> f_lo, f_hi, error_bound;
-    depth->SetName("depth");
-    f_lo->SetName("f_lo");
-    f_hi->SetName("f_hi");
-    error_bound->SetName("error_bound");
-    for (vtkDataArray *a : {(vtkDataArray *)depth, (vtkDataArray *)f_lo, (vtkDataArray *)f_hi,
-                            (vtkDataArray *)error_bound})
-        a->SetNumberOfTuples((vtkIdType)n);
-    {
-        int *depth_v = depth->GetPointer(0);
-        double *lo = f_lo->GetPointer(0), *hi = f_hi->GetPointer(0);
-        double *eb = error_bound->GetPointer(0);
-        const size_t chunk = 65536;
-        parallel_chunks(n, chunk, writer_threads(tree, (n + chunk - 1) / chunk),
-                        [&](size_t s, size_t e, int) {
-                            for (size_t i = s; i < e; i++) {
-                                const oct_leaf_t &l = tree->leaves[i];
-                                depth_v[i] = oct_leaf_depth(&l);
-                                lo[i] = l.f_lo;
-                                hi[i] = l.f_hi;
-                                eb[i] = oct_leaf_error_bound(tree, (uint32_t)i);
-                            }
-                        });
-    }
-    vtkCellData *cd = ug->GetCellData();
-    cd->AddArray(depth);
-    cd->AddArray(f_lo);
-    cd->AddArray(f_hi);
-    cd->AddArray(error_bound);
-    if (tree->certain) {
-        // 1 where the leaf surely holds surface (oct_certify)
-        vtkNew<vtkUnsignedCharArray> certain;
-        certain->SetName("certain");
-        certain->SetNumberOfTuples((vtkIdType)n);
-        unsigned char *c = certain->GetPointer(0);
-        for (size_t i = 0; i < n; i++)
-            c[i] = tree->certain[i] != 0;
-        cd->AddArray(certain);
-    }
-    if (tree->slabs) {
-        vtkNew<vtkDoubleArray> normal;
-        normal->SetName("normal");
-        normal->SetNumberOfComponents(3);
-        normal->SetNumberOfTuples((vtkIdType)n);
-        for (uint32_t i = 0; i < n; i++)
-            normal->SetTuple(i, tree->slabs[i].n);
-        cd->AddArray(normal);
-    }
-    cd->SetActiveScalars("depth");
-    add_field_data(ug->GetFieldData(), tree, src);
-
-    vtkNew<vtkXMLUnstructuredGridWriter> w;
-    w->SetDataModeToAppended();
-    w->EncodeAppendedDataOff();
-    write_xml(w.Get(), ug, path);
-}
-
+// ---- .vtu: vtu_xml.cpp (VTK's UnstructuredGrid XML format, written without VTK's writer) ----
 // ---- .htg: htg_xml.cpp (VTK's HyperTreeGrid XML format, written without VTK's writer) ----
 
 // ---- .vtp -----------------------------------------------------------------------------

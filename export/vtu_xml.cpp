@@ -41,19 +41,6 @@ constexpr unsigned char VTK_VOXEL_TYPE = 11;  // vtkCellType.h's VTK_VOXEL
 constexpr size_t RESERVED = 20;               // vtkXMLWriter::ReserveAttributeSpace's length
 
 // ---- the points -----------------------------------------------------------------------
-// The bits of every third bit of v from bit 0 on, packed (x of a Morton code;
-// y and z from the code shifted by 1 and 2): oct_unmorton without its loop.
-inline uint32_t every_third_bit(uint64_t v)
-{
-    v &= 0x1249249249249249ull;
-    v = (v ^ (v >> 2)) & 0x10c30c30c30c30c3ull;
-    v = (v ^ (v >> 4)) & 0x100f00f00f00f00full;
-    v = (v ^ (v >> 8)) & 0x001f0000ff0000ffull;
-    v = (v ^ (v >> 16)) & 0x001f00000000ffffull;
-    v = (v ^ (v >> 32)) & 0x00000000001fffffull;
-    return (uint32_t)v;
-}
-
 // The bits set in v (no popcnt instruction assumed: the build targets x86-64).
 inline uint32_t popcount(uint64_t v)
 {
@@ -73,9 +60,9 @@ inline void leaf_anchor(const oct_tree_t *tree, size_t i, uint32_t a[3], uint32_
     const int depth = oct_leaf_depth(&l);
     const uint64_t code = oct_leaf_code(&l);
     size = 1u << (tree->depth - depth);
-    a[0] = every_third_bit(code) * size;
-    a[1] = every_third_bit(code >> 1) * size;
-    a[2] = every_third_bit(code >> 2) * size;
+    oct_unmorton(code, depth, &a[0], &a[1], &a[2]);
+    for (int k = 0; k < 3; k++)
+        a[k] *= size;
 }
 
 struct Corner {

@@ -45,16 +45,28 @@ uint64_t oct_morton(uint32_t ix, uint32_t iy, uint32_t iz, int depth)
     return code;
 }
 
+/* Every third bit of v from bit 0 on, packed: bit 3k goes to bit k (k < 21). */
+static uint32_t every_third_bit(uint64_t v)
+{
+    v &= 0x1249249249249249ull;
+    v = (v ^ (v >> 2)) & 0x10c30c30c30c30c3ull;
+    v = (v ^ (v >> 4)) & 0x100f00f00f00f00full;
+    v = (v ^ (v >> 8)) & 0x001f0000ff0000ffull;
+    v = (v ^ (v >> 16)) & 0x001f00000000ffffull;
+    v = (v ^ (v >> 32)) & 0x00000000001fffffull;
+    return (uint32_t)v;
+}
+
 void oct_unmorton(uint64_t code, int depth, uint32_t *ix, uint32_t *iy, uint32_t *iz)
 {
-    uint32_t x = 0, y = 0, z = 0;
-    for (int level = depth - 1; level >= 0; level--) {
-        unsigned child = (unsigned)(code >> (3 * level)) & 7u;
-        x = x << 1 | (child & 1u);
-        y = y << 1 | (child >> 1 & 1u);
-        z = z << 1 | (child >> 2 & 1u);
-    }
-    *ix = x, *iy = y, *iz = z;
+    /* the bits above the depth's 3·depth are not the cell's */
+    if (depth <= 0)
+        code = 0;
+    else if (depth < 21)
+        code &= ((uint64_t)1 << (3 * depth)) - 1;
+    *ix = every_third_bit(code);
+    *iy = every_third_bit(code >> 1);
+    *iz = every_third_bit(code >> 2);
 }
 
 /* The bits of the float next to f (bits b) toward -inf (up = 0) or +inf

@@ -228,7 +228,9 @@ double oct_coord(double lo, double hi, uint64_t i, int depth);
 /* The box of the cell (depth, ix, iy, iz) of the tree's box. */
 iv_box_t oct_cell_box(const double box[6], int depth, uint32_t ix, uint32_t iy, uint32_t iz);
 
-/* Morton code <-> cell coordinates at a depth. */
+/* Morton code <-> cell coordinates at a depth (0..OCT_MAX_DEPTH; the child
+ * number at each level: bit 0 x, bit 1 y, bit 2 z).  oct_unmorton ignores the
+ * bits of code above 3·depth. */
 uint64_t oct_morton(uint32_t ix, uint32_t iy, uint32_t iz, int depth);
 void oct_unmorton(uint64_t code, int depth, uint32_t *ix, uint32_t *iy, uint32_t *iz);
 

@@ -7,7 +7,7 @@
  * The doubles: zeros of both signs, the float and double subnormal ranges, the
  * float range's ends and beyond (overflow to an infinite bound only outward),
  * the infinities, NaN (stays NaN), and random bit patterns of every exponent;
- * the depth and code of keys at depths 0..21. */
+ * the depth and code of keys at depths 0..21; oct_unmorton and oct_morton. */
 #define _POSIX_C_SOURCE 200809L
 #include <float.h>
 #include <math.h>
@@ -108,12 +108,40 @@ static void test_key(void **state)
         }
 }
 
+/* oct_unmorton against the level-by-level definition (the child number at each
+ * level: bit 0 x, bit 1 y, bit 2 z), with bits above 3·depth that it must
+ * ignore, and oct_morton's inverse, at depths 0..21 */
+static void test_morton(void **state)
+{
+    (void)state;
+    uint64_t rng = tu_seed(0x6d6f72ULL);
+    for (int depth = 0; depth <= OCT_MAX_DEPTH; depth++)
+        for (int i = 0; i < 20000; i++) {
+            uint64_t raw = tu_next(&rng);
+            uint32_t x = 0, y = 0, z = 0;
+            for (int level = depth - 1; level >= 0; level--) {
+                unsigned child = (unsigned)(raw >> (3 * level)) & 7u;
+                x = x << 1 | (child & 1u);
+                y = y << 1 | (child >> 1 & 1u);
+                z = z << 1 | (child >> 2 & 1u);
+            }
+            uint32_t ix, iy, iz;
+            oct_unmorton(raw, depth, &ix, &iy, &iz);
+            assert_int_equal(ix, x);
+            assert_int_equal(iy, y);
+            assert_int_equal(iz, z);
+            uint64_t code = oct_morton(ix, iy, iz, depth);
+            assert_true(depth == 0 ? code == 0 : code == (raw & (((uint64_t)1 << (3 * depth)) - 1)));
+        }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_edges),
         cmocka_unit_test(test_random),
         cmocka_unit_test(test_key),
+        cmocka_unit_test(test_morton),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -90,14 +90,26 @@ static inline int fm_pick_max(iv_t a, iv_t b) { return a.lo >= b.hi ? -1 : b.lo 
 /* ---- rounding magnitudes of the ray pass (non-negative bounds, rounded up) */
 static inline double mag_of(iv_t a)
 {
-    double l = fabs(a.lo), h = fabs(a.hi);
-    return iv_is_empty(a) ? INFINITY : l > h ? l : h;
+    /* (one double select per condition: so the lane loops vectorise) */
+    double l = fabs(a.lo), h = fabs(a.hi), m = l > h ? l : h;
+    m = a.lo != a.lo ? INFINITY : m;
+    return a.hi != a.hi ? INFINITY : m;
 }
 /* x * y rounded up, x, y >= 0; exactly 0 when a factor is 0 (also times +inf:
  * a zero bound means the term is exactly 0, see iv_mul_bound) */
 static inline double mag_mul(double x, double y)
 {
-    return x == 0 || y == 0 ? 0.0 : iv_up(x * y);
+    double p = iv_up(x * y); /* (selects, not ||: so the lane loops vectorise) */
+    p = x == 0 ? 0.0 : p;
+    return y == 0 ? 0.0 : p;
+}
+/* x + y rounded up: iv_add_up (exact when a term is 0), written with one
+ * select per condition so that the lane loops vectorise */
+static inline double mag_add(double x, double y)
+{
+    double s = x + y, u = iv_up(s);
+    u = x == 0 ? s : u;
+    return y == 0 ? s : u;
 }
 /* x / y rounded up, x, y >= 0; y = 0 (a divisor that may vanish) gives +inf */
 static inline double mag_div(double x, double y)

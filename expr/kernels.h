@@ -539,6 +539,30 @@ static void r_lanes_powi(double *o, const double *a, size_t nl, unsigned n)
     r_lanes_chain(o, a, nl, sl, sh);
 }
 
+/* o = a + b (add) or a - b along the ray; inlined with add constant, so
+ * that the lane loops have no select on it */
+static inline void r_lanes_add(double *o, const double *a, const double *b, size_t nl, int add)
+{
+    double *restrict vl = RA(o, R_VLO), *restrict vh = RA(o, R_VHI);
+    double *restrict dl = RA(o, R_DLO), *restrict dh = RA(o, R_DHI), *restrict m = RA(o, R_MAG);
+    const double *avl = RA(a, R_VLO), *avh = RA(a, R_VHI), *adl = RA(a, R_DLO),
+                 *adh = RA(a, R_DHI), *am = RA(a, R_MAG);
+    const double *bvl = RA(b, R_VLO), *bvh = RA(b, R_VHI), *bdl = RA(b, R_DLO),
+                 *bdh = RA(b, R_DHI), *bm = RA(b, R_MAG);
+    for (size_t k = 0; k < nl; k++) {
+        iv_t v = add ? iv_add(IV(avl, avh, k), IV(bvl, bvh, k))
+                     : iv_sub(IV(avl, avh, k), IV(bvl, bvh, k));
+        vl[k] = v.lo, vh[k] = v.hi;
+    }
+    for (size_t k = 0; k < nl; k++) {
+        iv_t d = add ? iv_add(IV(adl, adh, k), IV(bdl, bdh, k))
+                     : iv_sub(IV(adl, adh, k), IV(bdl, bdh, k));
+        dl[k] = d.lo, dh[k] = d.hi;
+    }
+    for (size_t k = 0; k < nl; k++)
+        m[k] = mag_add(am[k], bm[k]);
+}
+
 static void K(ray)(const tape_t *t, double *R, size_t nl, kernel_in_t in, kernel_in_t dir_rho)
 {
     for (uint32_t i = 0; i < t->n; i++) {
@@ -575,23 +599,8 @@ static void K(ray)(const tape_t *t, double *R, size_t nl, kernel_in_t in, kernel
                 vl[k] = v.lo, vh[k] = v.hi, dl[k] = d.lo, dh[k] = d.hi, m[k] = am[k];
             }
             break;
-        case TAPE_ADD:
-        case TAPE_SUB: {
-            const int add = op == TAPE_ADD;
-            for (size_t k = 0; k < nl; k++) {
-                iv_t v = add ? iv_add(IV(avl, avh, k), IV(bvl, bvh, k))
-                             : iv_sub(IV(avl, avh, k), IV(bvl, bvh, k));
-                vl[k] = v.lo, vh[k] = v.hi;
-            }
-            for (size_t k = 0; k < nl; k++) {
-                iv_t d = add ? iv_add(IV(adl, adh, k), IV(bdl, bdh, k))
-                             : iv_sub(IV(adl, adh, k), IV(bdl, bdh, k));
-                dl[k] = d.lo, dh[k] = d.hi;
-            }
-            for (size_t k = 0; k < nl; k++)
-                m[k] = iv_add_up(am[k], bm[k]);
-            break;
-        }
+        case TAPE_ADD: r_lanes_add(o, a, b, nl, 1); break;
+        case TAPE_SUB: r_lanes_add(o, a, b, nl, 0); break;
         case TAPE_MUL: {
             for (size_t k = 0; k < nl; k++) {
                 iv_t v = iv_mul(IV(avl, avh, k), IV(bvl, bvh, k));
@@ -599,8 +608,8 @@ static void K(ray)(const tape_t *t, double *R, size_t nl, kernel_in_t in, kernel
             }
             lanes_mul_add(dl, dh, adl, adh, bvl, bvh, avl, avh, bdl, bdh, nl);
             for (size_t k = 0; k < nl; k++)
-                m[k] = iv_add_up(mag_mul(am[k], mag_of(IV(bvl, bvh, k))),
-                                 mag_mul(mag_of(IV(avl, avh, k)), bm[k]));
+                m[k] = mag_add(mag_mul(am[k], mag_of(IV(bvl, bvh, k))),
+                               mag_mul(mag_of(IV(avl, avh, k)), bm[k]));
             break;
         }
         case TAPE_DIV:

@@ -1,40 +1,52 @@
 /* ivoct — the native octree file (.ivo).
  *
  * Layout, all integers little-endian, doubles as their IEEE bits:
- *   "IVOCTREE"  u32 version (4 with certain leaves, else 3; oct_load also reads
- *               2, without the parametrization)
+ *   "IVOCTREE"  u32 version (6 with certain leaves, else 5; oct_load also reads
+ *               4 and 3, the same layouts with the older checksum, and 2,
+ *               without the parametrization)
  *   u32 depth  u32 tests  f64 refine  u32 has_slabs  f64 box[6]
  *   str name  u32 n_lets  (str let_name  str let_text) * n_lets  str f
- *   str param_x  str param_y  str param_z  f64 patch[4]   (version 3; "" for an
- *                                                         implicit scene)
+ *   str param_x  str param_y  str param_z  f64 patch[4]   (versions 3 to 6; ""
+ *                                                         for an implicit scene)
  *   u32 n_nodes  u32 n_leaves
  *   u32 node * n_nodes
  *   (u64 code  f64 f_lo  f64 f_hi  u8 depth) * n_leaves
  *   when has_slabs: (f64 n[3]  f64 d_lo  f64 d_hi  f64 thickness) * n_leaves
- *   version 4: u8 certain * n_leaves   (oct_witness_decode codes)
- *   u64 checksum: FNV-1a of every byte before it
- * where str = u32 length + bytes.  The reader checks every length against the
- * file size before using it, the checksum, and the tree's structure, so a
- * truncated or corrupt file is an error and never a crash. */
+ *   versions 6 and 4: u8 certain * n_leaves   (oct_witness_decode codes)
+ *   u64 checksum of every byte before it: XXH3-64 (xxHash, seed 0) in
+ *       versions 5 and 6, FNV-1a 64 in versions 2, 3 and 4
+ * where str = u32 length + bytes.  Versions 5 and 6 are 3 and 4 byte for byte
+ * but for the version field and the checksum: FNV-1a is byte-serial (~4 cycles
+ * a byte, most of a large save's time), XXH3 (libxxhash) runs at memory speed.
+ * The reader checks every length against the file size before using it, the
+ * checksum (the one the version names: an unknown version is refused), and
+ * the tree's structure, so a truncated or corrupt file is an error and never a
+ * crash. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include <xxhash.h>
 
 #include "../io/io.h"
 #include "file_internal.h"
 #include "octree.h"
 
 #define MAGIC "IVOCTREE"
-#define VERSION 3u         /* without certain leaves: what readers of 3 read */
-#define VERSION_CERTAIN 4u /* version 3 followed by the certain codes */
+#define VERSION 5u         /* without certain leaves: version 3's layout, XXH3-64 */
+#define VERSION_CERTAIN 6u /* version 5 followed by the certain codes */
+/* read only: the same layouts with FNV-1a 64 (files written before XXH3) */
+#define VERSION_FNV 3u
+#define VERSION_FNV_CERTAIN 4u
 #define MAX_FILE ((size_t)1 << 36)
 
 /* ---- writing through a buffer ----------------------------------------------------
  * The file goes out in large writes as it is made: a 1 MB staging buffer for
  * the small fields and the repacked leaves, and on a little-endian host the
  * node words and the slabs (the file's own byte order) straight from the tree's
- * arrays, one fwrite each.  The checksum is carried along over every byte. */
+ * arrays, one fwrite each.  The checksum (XXH3-64, streaming) is carried along
+ * over every byte. */
 
 #define WBUF_SIZE ((size_t)1 << 20)
 
@@ -49,19 +61,13 @@ typedef struct wbuf {
     FILE *f;
     unsigned char *p;
     size_t n;
-    uint64_t hash; /* FNV-1a of every byte put so far */
+    XXH3_state_t *hash; /* XXH3-64 of every byte put so far */
 } wbuf_t;
-
-static uint64_t fnv1a_more(uint64_t h, const unsigned char *p, size_t n)
-{
-    for (size_t i = 0; i < n; i++)
-        h = (h ^ p[i]) * 0x100000001b3ull;
-    return h;
-}
 
 static void emit(wbuf_t *b, const void *src, size_t n)
 {
-    b->hash = fnv1a_more(b->hash, src, n);
+    if (n)
+        XXH3_64bits_update(b->hash, src, n);
     /* a failed write sets the stream's error flag, which io_commit reports */
     if (n && !ferror(b->f))
         fwrite(src, 1, n, b->f);
@@ -115,22 +121,29 @@ static void put_str(wbuf_t *b, const char *s)
     put(b, s ? s : "", n);
 }
 
+/* The checksum of files of versions 2 to 4, read only. */
 static uint64_t fnv1a(const unsigned char *p, size_t n)
 {
-    return fnv1a_more(0xcbf29ce484222325ull, p, n);
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ p[i]) * 0x100000001b3ull;
+    return h;
 }
 
 int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
              ivoct_error_t *err)
 {
-    wbuf_t b = {NULL, malloc(WBUF_SIZE), 0, 0xcbf29ce484222325ull};
-    if (!b.p) {
+    wbuf_t b = {NULL, malloc(WBUF_SIZE), 0, XXH3_createState()};
+    if (!b.p || !b.hash || XXH3_64bits_reset(b.hash) != XXH_OK) {
+        free(b.p);
+        XXH3_freeState(b.hash);
         ivoct_error_set(err, "cannot write %s: out of memory", path);
         return -1;
     }
     io_file_t f;
     if (io_open(&f, path, err)) {
         free(b.p);
+        XXH3_freeState(b.hash);
         return -1;
     }
     b.f = f.f;
@@ -196,10 +209,11 @@ int oct_save(const oct_tree_t *tree, const oct_source_t *src, const char *path,
     if (tree->certain)
         put(&b, tree->certain, tree->n_leaves);
     flush(&b);
-    uint64_t sum = b.hash;
+    uint64_t sum = XXH3_64bits_digest(b.hash);
     put_u64(&b, sum);
     flush(&b);
     free(b.p);
+    XXH3_freeState(b.hash);
     return io_commit(&f, err);
 }
 
@@ -423,18 +437,28 @@ int file_load_tree(const char *path, oct_tree_t **out, oct_source_t *src, uint64
         why = "not an ivoct octree file (bad magic)";
         goto fail;
     }
-    uint64_t stored = 0;
-    if (n < 8 + 8 || fnv1a(data, n - 8) != (r.at = n - 8, stored = get_u64(&r))) {
+    /* the version names the checksum: read it first, then check the checksum
+     * before anything else */
+    if (n < 8 + 4 + 8) {
+        why = "checksum mismatch (truncated or corrupt file)";
+        goto fail;
+    }
+    uint32_t version = get_u32(&r);
+    int xxh3 = version == VERSION || version == VERSION_CERTAIN;
+    if (!xxh3 && version != VERSION_FNV && version != VERSION_FNV_CERTAIN && version != 2) {
+        why = "unsupported version";
+        goto fail;
+    }
+    r.at = n - 8;
+    uint64_t stored = get_u64(&r);
+    if ((xxh3 ? XXH3_64bits(data, n - 8) : fnv1a(data, n - 8)) != stored) {
         why = "checksum mismatch (truncated or corrupt file)";
         goto fail;
     }
     r.n = n - 8; /* the checksum is not payload */
-    r.at = 8;
-    uint32_t version = get_u32(&r);
-    if (version != VERSION && version != VERSION_CERTAIN && version != 2) {
-        why = "unsupported version";
-        goto fail;
-    }
+    r.at = 8 + 4;
+    /* the certain leaves' codes follow the slabs */
+    int has_certain = version == VERSION_CERTAIN || version == VERSION_FNV_CERTAIN;
     t->depth = (int)get_u32(&r);
     t->tests = get_u32(&r);
     t->refine = get_f64(&r);
@@ -481,7 +505,7 @@ int file_load_tree(const char *path, oct_tree_t **out, oct_source_t *src, uint64
     if (r.bad || t->depth < 0 || t->depth > OCT_MAX_DEPTH ||
         has_slabs > 1 || !(t->refine >= 0) ||
         (uint64_t)t->n_nodes * 4 +
-                (uint64_t)t->n_leaves * (25 + 48 * has_slabs + (version == VERSION_CERTAIN)) !=
+                (uint64_t)t->n_leaves * (25 + 48 * has_slabs + (uint64_t)has_certain) !=
             r.n - r.at) {
         why = "bad header or truncated tree";
         goto fail;
@@ -520,7 +544,7 @@ int file_load_tree(const char *path, oct_tree_t **out, oct_source_t *src, uint64
             sl->thickness = get_f64(&r);
         }
     }
-    if (version == VERSION_CERTAIN) {
+    if (has_certain) {
         t->certain = malloc((size_t)t->n_leaves + 1);
         const unsigned char *c = take(&r, t->n_leaves);
         if (!t->certain) {

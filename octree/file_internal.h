@@ -11,8 +11,8 @@
  * "ivoct-pieces 1 pieces=N leaves=L"); a tree file begins with "IVOCTREE". */
 #define PIECES_MAGIC "ivoct-pi"
 
-/* oct_load of one tree file; *checksum (when not NULL) is the FNV-1a checksum
- * that ends the file (checked). */
+/* oct_load of one tree file; *checksum (when not NULL) is the checksum that
+ * ends the file (checked: XXH3-64 for versions 5 and 6, FNV-1a 64 for older). */
 int file_load_tree(const char *path, oct_tree_t **out, oct_source_t *src, uint64_t *checksum,
                    ivoct_error_t *err);
 

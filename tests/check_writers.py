@@ -20,6 +20,8 @@ Then
 Prints one line per failed check on stderr; exit 1 if any failed.
 """
 import argparse
+import ctypes
+import ctypes.util
 import csv
 import math
 import struct
@@ -47,6 +49,23 @@ def fnv1a(data):
     return h
 
 
+def xxh3_64(data):
+    """XXH3-64, seed 0, from Debian's libxxhash (libxxhash0, a dependency of
+    libxxhash-dev) through ctypes: the library, not ivoct's code."""
+    lib = ctypes.CDLL(ctypes.util.find_library("xxhash") or "libxxhash.so.0")
+    lib.XXH3_64bits.restype = ctypes.c_uint64
+    lib.XXH3_64bits.argtypes = [ctypes.c_char_p, ctypes.c_size_t]
+    check(lib.XXH3_64bits(b"a", 1) == 0xE6C632B61E964E1F, "libxxhash: XXH3-64 of 'a'")
+    return lib.XXH3_64bits(bytes(data), len(data))
+
+
+def ivo_checksum(data):
+    """The checksum the file's version names: XXH3-64 in versions 5 and 6,
+    FNV-1a 64 in versions 2 to 4 (octree/file.c)."""
+    version = struct.unpack("<I", data[8:12])[0]
+    return xxh3_64(data[:-8]) if version in (5, 6) else fnv1a(data[:-8])
+
+
 class Reader:
     def __init__(self, data):
         self.d, self.at = data, 0
@@ -71,7 +90,7 @@ class Reader:
 def read_ivo(path):
     data = open(path, "rb").read()
     check(data[:8] == b"IVOCTREE", "ivo: bad magic")
-    check(fnv1a(data[:-8]) == struct.unpack("<Q", data[-8:])[0], "ivo: checksum")
+    check(ivo_checksum(data) == struct.unpack("<Q", data[-8:])[0], "ivo: checksum")
     r = Reader(data[:-8])
     r.take(8)
     t = {"version": r.u32(), "depth": r.u32(), "tests": r.u32(), "refine": r.f64()}
@@ -90,11 +109,11 @@ def read_ivo(path):
     t["leaves"] = leaves
     t["slabs"] = (np.frombuffer(r.take(48 * n_leaves), dtype="<f8").reshape(-1, 6)
                   if has_slabs else None)
-    # version 4: one witness code per leaf (octree/README.md)
+    # versions 6 and 4: one witness code per leaf (octree/README.md)
     t["certain"] = (np.frombuffer(r.take(n_leaves), dtype="u1")
-                    if t["version"] == 4 else None)
+                    if t["version"] in (4, 6) else None)
     check(r.at == len(r.d), "ivo: %d bytes after the tree" % (len(r.d) - r.at))
-    check(t["version"] in (2, 3, 4), "ivo: version %d" % t["version"])
+    check(t["version"] in (2, 3, 4, 5, 6), "ivo: version %d" % t["version"])
     return t
 
 

@@ -12,11 +12,19 @@
  *    one: oct_load must fail, saying "PATH: REASON" with the reason the bad
  *    magic (shorter than the 8 bytes of it) or the checksum mismatch; so must
  *    a copy with bytes appended (the checksum);
+ *  - the checksum: a saved file is version 5 (6 with certain leaves) and ends
+ *    with XXH3-64 of the rest, recomputed here with xxHash's one-shot call
+ *    (the writer streams it); files of versions 3 and 4 (the same layouts
+ *    with FNV-1a 64, written before) made from new ones by rewriting the
+ *    version and re-signing with FNV-1a here, load as the same tree; a file
+ *    whose version names one checksum and that carries the other is refused
+ *    as corrupt;
  *  - corrupt copies: one random bit flipped in every byte of a small file, and
  *    random multi-byte corruptions of a larger one: oct_load must fail (the
- *    file ends with a 64-bit FNV-1a of the rest, which detects any change of
- *    one byte for sure), for the bad magic where a byte of it changed, else
- *    the checksum mismatch;
+ *    file ends with a 64-bit checksum of the rest, XXH3-64, whose every output
+ *    bit depends on every input byte), for the bad magic where a byte of it
+ *    changed, for an unsupported version where the version field changed to
+ *    one no reader knows, else the checksum mismatch;
  *  - corrupt and re-signed: the same corruptions with the checksum recomputed
  *    (the format is documented in octree/file.c), so the structure checks are
  *    what stands between the bytes and the reader.  Targeted invalid headers,
@@ -46,6 +54,7 @@
 #include <errno.h>
 
 #include <cmocka.h>
+#include <xxhash.h>
 
 #include "../octree/octree.h"
 #include "../scene/scene.h"
@@ -79,17 +88,46 @@ static void write_all(const char *path, const unsigned char *p, size_t n)
     assert_int_equal(fclose(f), 0);
 }
 
-/* The file's checksum: FNV-1a 64 of every byte before the last 8, stored
- * little-endian in the last 8 (octree/file.c). */
-static void resign(unsigned char *p, size_t n)
+/* The two checksums of the format (octree/file.c), of every byte before the
+ * last 8, stored little-endian in the last 8: XXH3-64 (seed 0) in versions 5
+ * and 6, FNV-1a 64 in versions 2 to 4. */
+static uint64_t fnv1a64(const unsigned char *p, size_t n)
+{
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ p[i]) * 0x100000001b3ull;
+    return h;
+}
+
+static uint64_t xxh3_64(const unsigned char *p, size_t n)
+{
+    return XXH3_64bits(p, n);
+}
+
+static void sign_with(unsigned char *p, size_t n, uint64_t (*sum)(const unsigned char *, size_t))
 {
     if (n < 8)
         return;
-    uint64_t h = 0xcbf29ce484222325ull;
-    for (size_t i = 0; i < n - 8; i++)
-        h = (h ^ p[i]) * 0x100000001b3ull;
+    uint64_t h = sum(p, n - 8);
     for (int i = 0; i < 8; i++)
         p[n - 8 + i] = (unsigned char)(h >> (8 * i));
+}
+
+static uint32_t get_u32(const unsigned char *p);
+
+/* Re-sign with the checksum the file's version names. */
+static void resign(unsigned char *p, size_t n)
+{
+    uint32_t v = n >= 12 ? get_u32(p + 8) : 0;
+    sign_with(p, n, v == 5 || v == 6 ? xxh3_64 : fnv1a64);
+}
+
+static uint64_t stored_sum(const unsigned char *p, size_t n)
+{
+    uint64_t v = 0;
+    for (int i = 7; i >= 0; i--)
+        v = v << 8 | p[n - 8 + i];
+    return v;
 }
 
 static void put_u32(unsigned char *p, uint32_t v)
@@ -283,9 +321,10 @@ typedef struct layout {
     uint32_t nn, nl, has_slabs;
 } layout_t;
 
-#define FILE_VERSION 3 /* octree/file.c, a tree without certain leaves */
-#define FILE_VERSION_NEXT 5 /* the first version oct_load does not know (4 is 3 with
-                               the certain leaves' codes) */
+#define FILE_VERSION 5 /* octree/file.c, a tree without certain leaves (XXH3-64) */
+#define FILE_VERSION_CERTAIN 6 /* 5 with the certain leaves' codes */
+#define FILE_VERSION_NEXT 7 /* the first version oct_load does not know (3 and 4 are 5
+                               and 6 with FNV-1a 64, 2 is 3 without the parametrization) */
 #define OFF_VERSION 8
 #define OFF_DEPTH 12
 #define OFF_REFINE 20
@@ -483,7 +522,7 @@ static void test_version_2(void **state)
     oct_free(t2), oct_free(t3);
     oct_source_free(&s2), oct_source_free(&s3);
     remove(path);
-    printf("version 2 file (%zu bytes): loads as the version 3 one, no parametrization\n", m);
+    printf("version 2 file (%zu bytes): loads as the version 5 one, no parametrization\n", m);
 
     /* param_y given, param_x and param_z empty: refused */
     unsigned char *r = malloc(n + 1);
@@ -496,6 +535,101 @@ static void test_version_2(void **state)
     free(r);
     free(q);
     free(p);
+}
+
+/* The checksum of a saved file, recomputed here; the older versions (3 and 4, the same
+ * layouts with FNV-1a 64) made from new files, loaded as the same tree; and the
+ * checksum each version names, and no other. */
+static void test_checksum_and_old_versions(void **state)
+{
+    (void)state;
+    /* the library is XXH3-64 of the format: published test vectors (seed 0) */
+    assert_true(XXH3_64bits("", 0) == 0x2d06800538d394c2ull);
+    assert_true(XXH3_64bits("a", 1) == 0xe6c632b61e964e1full);
+    assert_true(XXH3_64bits("abc", 3) == 0x78af5f94892f3950ull);
+    assert_true(fnv1a64((const unsigned char *)"a", 1) == 0xaf63dc4c8601ec8cull);
+    for (int certain = 0; certain <= 1; certain++) {
+        scene_t s;
+        tu_load_scene("gumdrop", &s);
+        oct_tree_t *t = build_ex(s.tape, s.box, 5, ALL_TESTS, 0.05);
+        ivoct_error_t err;
+        ivoct_error_clear(&err);
+        if (certain) {
+            assert_int_equal(oct_certify(t, s.tape, 2, &err), 0);
+            assert_non_null(t->certain);
+            assert_true(t->stats.leaves_certain > 0);
+        }
+        char path[128], old[128], again[128];
+        tmp_path(path, sizeof path, "new.ivo");
+        tmp_path(old, sizeof old, "old.ivo");
+        tmp_path(again, sizeof again, "again.ivo");
+        assert_int_equal(oct_save(t, &s.source, path, &err), 0);
+        size_t n;
+        unsigned char *p = tu_read_file(path, &n);
+        uint32_t v_new = certain ? FILE_VERSION_CERTAIN : FILE_VERSION, v_old = certain ? 4 : 3;
+        assert_int_equal(get_u32(p + OFF_VERSION), v_new);
+        assert_true(n > 8 + 4 + 8);
+        assert_true(stored_sum(p, n) == xxh3_64(p, n - 8));
+        assert_true(stored_sum(p, n) != fnv1a64(p, n - 8));
+        oct_tree_t *a, *b;
+        oct_source_t sa, sb;
+        if (oct_load(path, &a, &sa, &err) != 0)
+            fail_msg("version %u: %s", v_new, err.msg);
+        same_tree(t, a);
+        same_source(&s.source, &sa);
+
+        /* the same tree as an older file: the version rewritten, signed with FNV-1a */
+        unsigned char *q = malloc(n);
+        assert_non_null(q);
+        memcpy(q, p, n);
+        put_u32(q + OFF_VERSION, v_old);
+        sign_with(q, n, fnv1a64);
+        write_all(old, q, n);
+        if (oct_load(old, &b, &sb, &err) != 0)
+            fail_msg("a version %u file: %s", v_old, err.msg);
+        same_tree(a, b);
+        same_source(&sa, &sb);
+        assert_int_equal(a->certain != NULL, certain);
+        assert_int_equal(b->certain != NULL, certain);
+        if (certain) {
+            assert_memory_equal(a->certain, b->certain, a->n_leaves);
+            assert_int_equal(a->stats.leaves_certain, b->stats.leaves_certain);
+        }
+        /* saved again, it is the new file, byte for byte */
+        assert_int_equal(oct_save(b, &sb, again, &err), 0);
+        size_t m;
+        unsigned char *r = tu_read_file(again, &m);
+        assert_int_equal(m, n);
+        assert_memory_equal(r, p, n);
+        free(r);
+        printf("%s certain leaves: version %u (%zu bytes, XXH3-64 %016llx) and version %u "
+               "(FNV-1a 64 %016llx) load as the same tree\n",
+               certain ? "with" : "without", v_new, n, (unsigned long long)stored_sum(p, n),
+               v_old, (unsigned long long)stored_sum(q, n));
+
+        /* each version with the other's checksum: corrupt */
+        memcpy(q, p, n);
+        sign_with(q, n, fnv1a64);
+        char what[96];
+        snprintf(what, sizeof what, "version %u signed with FNV-1a", v_new);
+        expect_rejected(q, n, WHY_CHECKSUM, what);
+        put_u32(q + OFF_VERSION, v_old);
+        sign_with(q, n, xxh3_64);
+        snprintf(what, sizeof what, "version %u signed with XXH3-64", v_old);
+        expect_rejected(q, n, WHY_CHECKSUM, what);
+        /* and a version 2 file signed with XXH3-64 (its own is FNV-1a) */
+        put_u32(q + OFF_VERSION, 2);
+        sign_with(q, n, xxh3_64);
+        expect_rejected(q, n, WHY_CHECKSUM, "version 2 signed with XXH3-64");
+
+        remove(path), remove(old), remove(again);
+        free(q);
+        free(p);
+        oct_free(a), oct_free(b);
+        oct_source_free(&sa), oct_source_free(&sb);
+        oct_free(t);
+        scene_free(&s);
+    }
 }
 
 static void test_missing_and_unwritable(void **state)
@@ -592,22 +726,44 @@ static void test_truncated(void **state)
     free(p);
 }
 
+/* Why a corrupt copy q of the file p must be refused: the magic is checked
+ * first, then the version (which names the checksum), then the checksum. */
+static const char *corrupt_reason(const unsigned char *p, const unsigned char *q)
+{
+    if (memcmp(p, q, 8) != 0)
+        return WHY_MAGIC;
+    uint32_t v = get_u32(q + OFF_VERSION);
+    return v >= 2 && v <= 6 ? WHY_CHECKSUM : "unsupported version";
+}
+
 static void test_corrupt(void **state)
 {
     (void)state;
     uint64_t rng = tu_seed(0xc0ffee11ull);
     size_t n;
     unsigned char *p = saved_scene("sphere", 2, &n);
+    unsigned char *o = malloc(n);
+    assert_non_null(o);
+    memcpy(o, p, n);
     /* one bit flipped in every byte (the checksum's included) */
     for (size_t i = 0; i < n; i++) {
         unsigned char bit = (unsigned char)(1u << (tu_next(&rng) % 8));
         p[i] ^= bit;
         char what[96];
         snprintf(what, sizeof what, "byte %zu of %zu with bit 0x%02x flipped", i, n, bit);
-        /* the magic is checked first; any other byte breaks the checksum */
-        expect_rejected(p, n, i < 8 ? WHY_MAGIC : WHY_CHECKSUM, what);
+        /* the magic and the version are checked first; any other byte breaks
+           the checksum */
+        expect_rejected(p, n, corrupt_reason(o, p), what);
         p[i] ^= bit;
     }
+    /* and every bit of the version field (5 -> 4 is a version that reads FNV-1a) */
+    for (int b = 0; b < 32; b++) {
+        put_u32(p + OFF_VERSION, FILE_VERSION ^ (1u << b));
+        char what[96];
+        snprintf(what, sizeof what, "version %u", get_u32(p + OFF_VERSION));
+        expect_rejected(p, n, corrupt_reason(o, p), what);
+    }
+    free(o);
     printf("small file: %zu single-bit corruptions rejected\n", n);
     free(p);
 
@@ -625,7 +781,7 @@ static void test_corrupt(void **state)
         if (memcmp(p, q, n) != 0) {
             char what[64];
             snprintf(what, sizeof what, "a copy with %d corrupt bytes", bytes);
-            expect_rejected(q, n, memcmp(p, q, 8) != 0 ? WHY_MAGIC : WHY_CHECKSUM, what);
+            expect_rejected(q, n, corrupt_reason(p, q), what);
         }
     }
     printf("larger file: %zu bytes, %d multi-byte corruptions rejected\n", n, tries);
@@ -658,8 +814,11 @@ static uint32_t find_node(const unsigned char *p, const layout_t *L, uint32_t ki
 }
 
 static void m_version(unsigned char *p, const layout_t *L) { (void)L; put_u32(p + OFF_VERSION, FILE_VERSION_NEXT); }
-/* a version 3 file read as version 4: one code byte per leaf is missing */
-static void m_version_certain(unsigned char *p, const layout_t *L) { (void)L; put_u32(p + OFF_VERSION, 4); }
+/* a version 5 file read as version 6: one code byte per leaf is missing */
+static void m_version_certain(unsigned char *p, const layout_t *L) { (void)L; put_u32(p + OFF_VERSION, FILE_VERSION_CERTAIN); }
+/* the same with FNV-1a: version 4 (re-signed with FNV-1a, the checksum it names) */
+static void m_version_fnv_certain(unsigned char *p, const layout_t *L) { (void)L; put_u32(p + OFF_VERSION, 4); }
+static void m_version_zero(unsigned char *p, const layout_t *L) { (void)L; put_u32(p + OFF_VERSION, 0); }
 static void m_depth_big(unsigned char *p, const layout_t *L) { (void)L; put_u32(p + OFF_DEPTH, OCT_MAX_DEPTH + 1); }
 static void m_depth_neg(unsigned char *p, const layout_t *L) { (void)L; put_u32(p + OFF_DEPTH, 0x80000000u); }
 static void m_depth_less(unsigned char *p, const layout_t *L) { put_u32(p + OFF_DEPTH, get_u32(p + L->depth) - 1); }
@@ -747,7 +906,9 @@ static void test_resigned_targeted(void **state)
         const char *why; /* what oct_load must say (octree/file.c) */
     } cases[] = {
         {"next version", m_version, "unsupported version"},
-        {"version 4 without the certain codes", m_version_certain, BAD_HEADER},
+        {"version 0", m_version_zero, "unsupported version"},
+        {"version 6 without the certain codes", m_version_certain, BAD_HEADER},
+        {"version 4 without the certain codes", m_version_fnv_certain, BAD_HEADER},
         {"depth 22", m_depth_big, BAD_HEADER},
         {"depth 2^31", m_depth_neg, BAD_HEADER},
         {"depth one less than the tree's", m_depth_less, "bad child index"},
@@ -955,6 +1116,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip),
         cmocka_unit_test(test_version_2),
+        cmocka_unit_test(test_checksum_and_old_versions),
         cmocka_unit_test(test_missing_and_unwritable),
         cmocka_unit_test(test_truncated),
         cmocka_unit_test(test_corrupt),

@@ -56,7 +56,7 @@ for scene in "${scenes[@]}"; do
     for variant in chain slabs certain; do
         opts=()
         [ $variant = slabs ] && opts=(--tests interval,lipschitz,ilie --refine 0.01)
-        # the certain leaves: the CSV's witness columns, the certain arrays, .ivo version 4
+        # the certain leaves: the CSV's witness columns, the certain arrays, .ivo version 6
         [ $variant = certain ] && opts=(--certain)
         o=$TMP/$name.$variant
         what="$name ($variant)"

@@ -174,6 +174,14 @@ static size_t padded(size_t m)
     return m < KERNEL_ALIGN ? m : (m + KERNEL_ALIGN - 1) / KERNEL_ALIGN * KERNEL_ALIGN;
 }
 
+/* The lanes of an interval or ray pass over m boxes: a short batch padded to
+ * the path's short_lanes, which those passes run as a whole (kernels.h,
+ * "Short batches"). */
+static size_t padded_short(const tape_kernels_t *kern, size_t m)
+{
+    return m < kern->short_lanes ? kern->short_lanes : padded(m);
+}
+
 /* The input arrays of a pass over m boxes, np >= m lanes. */
 static void load_boxes(tape_ws_t *ws, const iv_box_t *box, size_t m, size_t np)
 {
@@ -254,7 +262,7 @@ void tape_eval_interval_choices(const tape_t *t, tape_ws_t *ws, size_t n, const 
     const double *in[6] = PASS_IN(ws);
     const size_t last = (size_t)(t->n - 1) * B;
     for (size_t base = 0; base < n; base += B) {
-        size_t m = n - base < B ? n - base : B, np = padded(m);
+        size_t m = n - base < B ? n - base : B, np = padded_short(kern, m);
         load_boxes(ws, box + base, m, np);
         kern->interval(t, ws->lo, ws->hi, np, in);
         for (size_t k = 0; k < m; k++)
@@ -315,62 +323,29 @@ void tape_eval_grad(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *bo
  * rounded up — the price of the rounding term is a few double operations per
  * clause instead of the three partials a full gradient would need. */
 
-/* The box of one lane (tape.h): a point T is the rounded point p~(t); a
- * segment is o + T·d enclosed, hulled with p~(T.lo) and p~(T.hi) — fl(o +
- * fl(t·d)) is monotone in t, so every rounded point of T lies between those. */
-static void ray_box(const double o[3], const double d[3], iv_t T, iv_box_t *box)
-{
-    double pa[3], pb[3];
-    iv_t *ax = &box->x;
-    tape_ray_point(o, d, T.lo, pa);
-    if (T.lo == T.hi) {
-        for (int i = 0; i < 3; i++)
-            ax[i] = iv_point(pa[i]);
-        return;
-    }
-    tape_ray_point(o, d, T.hi, pb);
-    for (int i = 0; i < 3; i++) {
-        iv_t s = iv_add(iv_point(o[i]), iv_mul(T, iv_point(d[i])));
-        double lo = pa[i] < pb[i] ? pa[i] : pb[i], hi = pa[i] < pb[i] ? pb[i] : pa[i];
-        ax[i] = iv_make(s.lo < lo ? s.lo : lo, s.hi > hi ? s.hi : hi);
-    }
-}
-
 void tape_eval_ray(const tape_t *t, tape_ws_t *ws, const double o[3], const double d[3],
                    size_t n, const iv_t *T, iv_t *g, iv_t *dg, double *rnd)
 {
-    if (!dg) { /* values only: the interval pass over the lanes' boxes */
-        iv_box_t chunk[B];
-        for (size_t base = 0; base < n; base += B) {
-            size_t m = n - base < B ? n - base : B;
-            for (size_t k = 0; k < m; k++)
-                ray_box(o, d, T[base + k], &chunk[k]);
-            tape_eval_interval(t, ws, m, chunk, g + base);
-        }
-        return;
-    }
     const tape_kernels_t *kern = kernels();
     const double *in[6] = PASS_IN(ws);
     const double *dir_rho[6] = {ws->in + 6 * B,  ws->in + 7 * B,  ws->in + 8 * B,
                                 ws->in + 9 * B,  ws->in + 10 * B, ws->in + 11 * B};
-    const double *r = ws->grad + (size_t)(t->n - 1) * R_ARRAYS * B;
-    iv_box_t chunk[B];
+    double tl[B], th[B];
     for (size_t base = 0; base < n; base += B) {
-        size_t m = n - base < B ? n - base : B, np = padded(m);
-        for (size_t k = 0; k < m; k++)
-            ray_box(o, d, T[base + k], &chunk[k]);
-        load_boxes(ws, chunk, m, np);
+        size_t m = n - base < B ? n - base : B, np = padded_short(kern, m);
         for (size_t k = 0; k < np; k++) {
             iv_t Tk = T[base + (k < m ? k : 0)];
-            /* twice the largest displacement of a rounded point from the ray
-             * over T: two roundings of at most 2^-53 relative each (tape.h) */
-            double tmax = fabs(Tk.lo) > fabs(Tk.hi) ? fabs(Tk.lo) : fabs(Tk.hi);
-            for (int i = 0; i < 3; i++) {
-                ws->in[(6 + i) * B + k] = d[i];
-                ws->in[(9 + i) * B + k] =
-                    iv_up(iv_up(fabs(o[i]) + iv_up(2.0 * tmax * fabs(d[i]))) * 0x1p-51);
-            }
+            tl[k] = Tk.lo, th[k] = Tk.hi;
         }
+        kern->ray_inputs(np, o, d, tl, th, ws->in);
+        if (!dg) { /* values only: the interval pass over the lanes' boxes */
+            const size_t last = (size_t)(t->n - 1) * B;
+            kern->interval(t, ws->lo, ws->hi, np, in);
+            for (size_t k = 0; k < m; k++)
+                g[base + k] = iv_make(ws->lo[last + k], ws->hi[last + k]);
+            continue;
+        }
+        const double *r = ws->grad + (size_t)(t->n - 1) * R_ARRAYS * B;
         kern->ray(t, ws->grad, np, in, dir_rho);
         for (size_t k = 0; k < m; k++) {
             g[base + k] = iv_make(r[R_VLO * B + k], r[R_VHI * B + k]);

@@ -50,6 +50,15 @@ typedef struct tape_kernels {
      * lane k's box in in, its direction's components in dir_rho[0..2][k] and
      * its rounding radii rho in dir_rho[3..5][k] (see tape_eval_ray) */
     void (*ray)(const tape_t *t, double *R, size_t nl, kernel_in_t in, kernel_in_t dir_rho);
+    /* the inputs of a ray pass over lanes T = [tl[k], th[k]] into in (12
+     * arrays of TAPE_BATCH: the box, then the direction, then the rounding
+     * radii; see tape_eval_ray) */
+    void (*ray_inputs)(size_t nl, const double o[3], const double d[3], const double *tl,
+                       const double *th, double *in);
+    /* Batches of fewer lanes than this go to the interval and ray passes
+     * padded to exactly this many, which those passes run through a copy
+     * compiled for that count (kernels.h, "Short batches"); 0: as they are. */
+    size_t short_lanes;
 } tape_kernels_t;
 
 /* deps[i] for every clause of t: bit 0, 1, 2 when clause i depends on x, y,

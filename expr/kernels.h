@@ -71,7 +71,8 @@ static inline iv_t k_max(iv_t a, iv_t b)
         ol[k] = r_.lo, oh[k] = r_.hi;                                                        \
     }
 
-static void K(interval)(const tape_t *t, double *LO, double *HI, size_t nl, kernel_in_t in)
+static inline void K(interval_n)(const tape_t *t, double *LO, double *HI, size_t nl,
+                                 kernel_in_t in)
 {
     for (uint32_t i = 0; i < t->n; i++) {
         const tape_clause_t *c = &t->clauses[i];
@@ -563,7 +564,8 @@ static inline void r_lanes_add(double *o, const double *a, const double *b, size
         m[k] = mag_add(am[k], bm[k]);
 }
 
-static void K(ray)(const tape_t *t, double *R, size_t nl, kernel_in_t in, kernel_in_t dir_rho)
+static inline void K(ray_n)(const tape_t *t, double *R, size_t nl, kernel_in_t in,
+                            kernel_in_t dir_rho)
 {
     for (uint32_t i = 0; i < t->n; i++) {
         const tape_clause_t *c = &t->clauses[i];
@@ -655,5 +657,124 @@ static void K(ray)(const tape_t *t, double *R, size_t nl, kernel_in_t in, kernel
     }
 }
 
-const tape_kernels_t K(tape_kernels) = {KSTR(KERNEL_TARGET), K(point), K(interval), K(grad),
-                                        K(ray)};
+/* The inputs of a ray pass (tape_eval_ray, tape.h): lane k's box is the
+ * rounded point p~(t) when tl[k] = th[k], else o + T·d enclosed and hulled
+ * with p~(tl[k]) and p~(th[k]) (fl(o + fl(t·d)) is monotone in t, so every
+ * rounded point of T lies between those); the direction; and the rounding
+ * radii rho_i = 2^-51 (|o_i| + 2 max|T| |d_i|), rounded up. */
+static inline void K(ray_inputs_n)(size_t nl, const double o[3], const double d[3],
+                                   const double *tl, const double *th, double *in)
+{
+    double ov[B], dv[B], sl[B], sh[B];
+    for (int i = 0; i < 3; i++) {
+        double *restrict lo = in + (size_t)(2 * i) * B, *restrict hi = lo + B;
+        double *restrict dir = in + (size_t)(6 + i) * B, *restrict rho = in + (size_t)(9 + i) * B;
+        const double oi = o[i], di = d[i];
+        /* (o and d as arrays, the product and the sum in loops apart: else
+         * gcc vectorises neither) */
+        for (size_t k = 0; k < nl; k++)
+            ov[k] = oi, dv[k] = di;
+        for (size_t k = 0; k < nl; k++) {
+            iv_t s = iv_mul(IV(tl, th, k), IV(dv, dv, k));
+            sl[k] = s.lo, sh[k] = s.hi;
+        }
+        for (size_t k = 0; k < nl; k++) {
+            iv_t s = iv_add(IV(ov, ov, k), IV(sl, sh, k));
+            sl[k] = s.lo, sh[k] = s.hi;
+        }
+        for (size_t k = 0; k < nl; k++) {
+            double sa = tl[k] * di, sb = th[k] * di; /* tape_ray_point's two roundings */
+            double pa = oi + sa, pb = oi + sb;
+            iv_t s = iv_make(sl[k], sh[k]);
+            double l = pa < pb ? pa : pb, h = pa < pb ? pb : pa;
+            l = s.lo < l ? s.lo : l;
+            h = s.hi > h ? s.hi : h;
+            int point = tl[k] == th[k];
+            lo[k] = point ? pa : l;
+            hi[k] = point ? pa : h;
+        }
+        for (size_t k = 0; k < nl; k++) {
+            double a = fabs(tl[k]), b = fabs(th[k]), tmax = a > b ? a : b;
+            dir[k] = di;
+            rho[k] = iv_up(iv_up(fabs(oi) + iv_up(2.0 * tmax * fabs(di))) * 0x1p-51);
+        }
+    }
+}
+
+/* ---- short batches ------------------------------------------------------------------
+ * A ray's search asks for 1 to 8 lanes at a time.  Through the passes above,
+ * a few lanes run every lane loop's checks and scalar remainder, once per
+ * clause and array: most of such a pass.  So on the paths that define
+ * KERNEL_SHORT_LANES (kernels_<target>.c: where it was measured to pay), the
+ * interval and ray passes also exist compiled for exactly that many lanes
+ * with every helper inlined (flatten), which turns each lane loop into a few
+ * vector instructions, and eval.c pads a shorter batch to that count
+ * (tape_kernels_t.short_lanes): the lanes are independent, so the padding
+ * changes no lane's bits.  (gcc must not unroll those loops into scalar code
+ * before vectorising them: expr/CMakeLists.txt.) */
+#ifndef KERNEL_SHORT_LANES
+#error "kernels_<target>.c defines KERNEL_SHORT_LANES: 0 or KERNEL_ALIGN (see tape_kernels_t)"
+#endif
+#if KERNEL_SHORT_LANES
+#if defined(__GNUC__)
+#define KERNEL_FLATTEN __attribute__((flatten))
+#else
+#define KERNEL_FLATTEN
+#endif
+
+KERNEL_FLATTEN static void K(interval_short)(const tape_t *t, double *LO, double *HI,
+                                             kernel_in_t in)
+{
+    K(interval_n)(t, LO, HI, KERNEL_SHORT_LANES, in);
+}
+
+KERNEL_FLATTEN static void K(ray_short)(const tape_t *t, double *R, kernel_in_t in,
+                                        kernel_in_t dir_rho)
+{
+    K(ray_n)(t, R, KERNEL_SHORT_LANES, in, dir_rho);
+}
+
+KERNEL_FLATTEN static void K(ray_inputs_short)(const double o[3], const double d[3],
+                                               const double *tl, const double *th, double *in)
+{
+    K(ray_inputs_n)(KERNEL_SHORT_LANES, o, d, tl, th, in);
+}
+#endif
+
+static void K(interval)(const tape_t *t, double *LO, double *HI, size_t nl, kernel_in_t in)
+{
+#if KERNEL_SHORT_LANES
+    if (nl == KERNEL_SHORT_LANES) {
+        K(interval_short)(t, LO, HI, in);
+        return;
+    }
+#endif
+    K(interval_n)(t, LO, HI, nl, in);
+}
+
+static void K(ray)(const tape_t *t, double *R, size_t nl, kernel_in_t in, kernel_in_t dir_rho)
+{
+#if KERNEL_SHORT_LANES
+    if (nl == KERNEL_SHORT_LANES) {
+        K(ray_short)(t, R, in, dir_rho);
+        return;
+    }
+#endif
+    K(ray_n)(t, R, nl, in, dir_rho);
+}
+
+static void K(ray_inputs)(size_t nl, const double o[3], const double d[3], const double *tl,
+                          const double *th, double *in)
+{
+#if KERNEL_SHORT_LANES
+    if (nl == KERNEL_SHORT_LANES) {
+        K(ray_inputs_short)(o, d, tl, th, in);
+        return;
+    }
+#endif
+    K(ray_inputs_n)(nl, o, d, tl, th, in);
+}
+
+const tape_kernels_t K(tape_kernels) = {KSTR(KERNEL_TARGET), K(point),      K(interval),
+                                        K(grad),             K(ray),        K(ray_inputs),
+                                        KERNEL_SHORT_LANES};

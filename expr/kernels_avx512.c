@@ -1,3 +1,4 @@
 /* ivoct — the evaluators' passes (kernels.h) for the avx512 SIMD path. */
 #define KERNEL_TARGET avx512
+#define KERNEL_SHORT_LANES KERNEL_ALIGN /* a short batch: one vector per lane loop */
 #include "kernels.h"

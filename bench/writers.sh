@@ -56,15 +56,8 @@ mkdir -p "$root/bench/results"
 out=$root/bench/results/writers.csv
 work=$(mktemp -d /tmp/ivoct-writers.XXXXXX)
 trap 'rm -rf "$work"' EXIT
-# An .ivo without its checksum and with its version as its layout (3 and 5, 4 and 6 are the
-# same layouts with FNV-1a and XXH3-64, octree/file.c): binaries from before and after the
-# checksum change compare; between two of one side, same payload means same checksum.
-ivo_payload() {
-    /usr/bin/python3 -c 'import struct, sys
-d = open(sys.argv[1], "rb").read()
-v = struct.unpack("<I", d[8:12])[0] if len(d) >= 20 else 0
-sys.stdout.buffer.write(d[:8] + struct.pack("<I", {5: 3, 6: 4}.get(v, v)) + d[12:-8])' "$1"
-}
+# An .ivo without its checksum, its version as its layout (tests/ivo_payload.py).
+ivo_payload() { /usr/bin/python3 "$root/tests/ivo_payload.py" "$1"; }
 if [ "$same" = 1 ]; then
     [ -n "$base" ] || { echo "bench/writers.sh: --same-values needs --base IVOCT" >&2; exit 2; }
     strip_uuid() { perl -0777 -pe 's/[0-9a-f]{8}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{12}/UUID/' "$1"; }

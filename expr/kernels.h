@@ -661,7 +661,10 @@ static inline void K(ray_n)(const tape_t *t, double *R, size_t nl, kernel_in_t i
  * rounded point p~(t) when tl[k] = th[k], else o + T·d enclosed and hulled
  * with p~(tl[k]) and p~(th[k]) (fl(o + fl(t·d)) is monotone in t, so every
  * rounded point of T lies between those); the direction; and the rounding
- * radii rho_i = 2^-51 (|o_i| + 2 max|T| |d_i|), rounded up. */
+ * radii rho_i = 2^-51 (|o_i| + 2 max|T| |d_i|), rounded up: twice the largest
+ * displacement of a rounded point from the ray over T (two roundings of at
+ * most 2^-53 relative each).  The rounded points are tape_ray_point's, its
+ * two roundings written out lane by lane. */
 static inline void K(ray_inputs_n)(size_t nl, const double o[3], const double d[3],
                                    const double *tl, const double *th, double *in)
 {

@@ -707,8 +707,8 @@ static inline void K(ray_inputs_n)(size_t nl, const double o[3], const double d[
 /* ---- short batches ------------------------------------------------------------------
  * A ray's search asks for 1 to 8 lanes at a time.  Through the passes above,
  * a few lanes run every lane loop's checks and scalar remainder, once per
- * clause and array: most of such a pass.  So on the paths that define
- * KERNEL_SHORT_LANES (kernels_<target>.c: where it was measured to pay), the
+ * clause and array: most of such a pass.  So on the paths whose
+ * KERNEL_SHORT_LANES is not 0 (kernels_<target>.c: where it was measured to pay), the
  * interval and ray passes also exist compiled for exactly that many lanes
  * with every helper inlined (flatten), which turns each lane loop into a few
  * vector instructions, and eval.c pads a shorter batch to that count

@@ -127,6 +127,7 @@ static const tape_kernels_t *kernels(void)
 }
 
 const char *tape_simd_name(void) { return kernels()->name; }
+size_t tape_short_lanes(void) { return kernels()->short_lanes; }
 
 const char *tape_simd_paths(void)
 {

@@ -196,7 +196,12 @@ ray_hit_kind_t ray_find_root_n(const tape_t *tape, tape_ws_t *ws, ray_method_t m
     if (k == 0)
         return RAY_MISS;
     const ray_method_info_t *M = ray_method_info(m);
-    ctx_t c = {tape, ws, o, d, M, M->deriv, M->skip, opts->any_root != 0, 0, 0};
+    /* Boxes first pays where a pass costs by the lane; where short passes are
+     * padded to a whole batch, the points ride along with the boxes for free
+     * and skipping would only cost a second pass (the values are the same
+     * either way: eval_nodes). */
+    int skip = M->skip && tape_short_lanes() < RAY_BATCH;
+    ctx_t c = {tape, ws, o, d, M, M->deriv, skip, opts->any_root != 0, 0, 0};
     ray_hit_kind_t kind = RAY_MISS;
     int w = -1;
     if (M->rules == RULES_SAMPLING) {

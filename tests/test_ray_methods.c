@@ -67,24 +67,6 @@
 enum { SRC_BOX, SRC_OCTREE, NSRC };
 static const char *const SRC_NAME[NSRC] = {"box", "octree"};
 
-static void render(const scene_t *s, const ray_camera_t *cam, const oct_tree_t *tree,
-                   ray_method_t m, ray_image_t *img, ray_stats_t *st)
-{
-    ivoct_error_t err;
-    ivoct_error_clear(&err);
-    assert_int_equal(ray_image_alloc(img, cam->width, cam->height, &err), 0);
-    ray_box_source_t bs;
-    ray_octree_source_t os;
-    ray_source_t src = tree ? ray_octree_source(&os, tree) : ray_box_source(&bs, s->box);
-    ray_render_opts_t o;
-    ray_render_opts_default(&o);
-    o.method = m;
-    o.threads = 2;
-    double dx = s->box[1] - s->box[0], dy = s->box[3] - s->box[2], dz = s->box[5] - s->box[4];
-    o.roots.sample_step = sqrt(dx * dx + dy * dy + dz * dz) / 1000;
-    if (ray_render(s->tape, cam, &src, &o, img, st, &err))
-        fail_msg("render: %s", err.msg);
-}
 
 /* Sampling against the reference; returns the failures (printed) and counts
  * the disagreeing pixels in *differ. */
@@ -144,7 +126,7 @@ static void test_methods_against_reference(void **state)
         for (int j = 0; j < NSRC; j++)
             for (int m = 0; m < RAY_METHOD_COUNT; m++) {
                 ray_stats_t st;
-                render(&s, &cam, j == SRC_OCTREE ? tree : NULL, (ray_method_t)m, &img[j][m], &st);
+                tu_render(&s, &cam, j == SRC_OCTREE ? tree : NULL, (ray_method_t)m, 2, &img[j][m], &st);
                 char what[96];
                 snprintf(what, sizeof what, "%s %s %s", name, SRC_NAME[j],
                          ray_method_name((ray_method_t)m));

@@ -8,7 +8,11 @@
  *     pass, then a short padded one), must equal the portable path's results
  *     byte for byte (NaN payloads included: the evaluators make the same NaN);
  *   - the octree of every scene, with the scene's tests and with the whole
- *     chain, built with 1 and 2 threads, must save to the same .ivo bytes.
+ *     chain, built with 1 and 2 threads, must save to the same .ivo bytes;
+ *   - the renders of the comparison surfaces and the CSG union, every method,
+ *     must give the same buffers and counts but the count of evaluator passes,
+ *     which may differ only between paths of different tape_short_lanes (the
+ *     root finders fill a padded pass where that is free, ray/README.md).
  * Enclosure itself is the MPFI tests' job; they run once per path (ctest
  * names ending in @portable, @avx2, @avx512). */
 #define _POSIX_C_SOURCE 200809L
@@ -228,6 +232,83 @@ static void test_trees(void **state)
     tape_simd_select(NULL, NULL);
 }
 
+/* The first buffer or count in which b differs from a, or NULL: the passes
+ * count only when both came from paths that pad alike (same_padding). */
+static const char *difference(const ray_image_t *a, const ray_stats_t *sa, const ray_image_t *b,
+                              const ray_stats_t *sb, int same_padding)
+{
+    size_t n = (size_t)a->width * a->height;
+    if (memcmp(a->t, b->t, n * sizeof *a->t))
+        return "t";
+    if (memcmp(a->point, b->point, 3 * n * sizeof *a->point))
+        return "point";
+    if (memcmp(a->normal, b->normal, 3 * n * sizeof *a->normal))
+        return "normal";
+    if (memcmp(a->hit, b->hit, n) || memcmp(a->kind, b->kind, n))
+        return "hit";
+    if (memcmp(a->rgb, b->rgb, 3 * n))
+        return "rgb";
+    if (sa->hits != sb->hits || sa->tangent_hits != sb->tangent_hits ||
+        sa->segments != sb->segments || sa->leaves != sb->leaves)
+        return "counts";
+    if (same_padding && sa->tape_evals != sb->tape_evals)
+        return "passes";
+    return NULL;
+}
+
+/* The same image on every path: buffers byte for byte, the counts of hits,
+ * segments and leaves; the passes equal where the paths pad alike. */
+static void test_renders(void **state)
+{
+    (void)state;
+    char paths[MAX_PATHS][16];
+    int npaths = available_paths(paths);
+    const int size = tu_image_size(32);
+    const char *names[TU_N_COMPARISON + 1];
+    for (int k = 0; k < TU_N_COMPARISON; k++)
+        names[k] = tu_comparison_surfaces[k];
+    names[TU_N_COMPARISON] = "csg-64-spheres";
+    long fewer = 0;
+    for (int k = 0; k <= TU_N_COMPARISON; k++) {
+        scene_t s;
+        tu_load_scene(names[k], &s);
+        oct_tree_t *tree = tu_scene_octree(&s);
+        ray_camera_t cam;
+        ivoct_error_t err;
+        ivoct_error_clear(&err);
+        if (ray_camera_init(&cam, s.camera.eye, s.camera.target, s.camera.up, s.camera.fov, size,
+                            size, &err))
+            fail_msg("%s: camera: %s", names[k], err.msg);
+        for (int m = 0; m < RAY_METHOD_COUNT; m++) {
+            ray_image_t first;
+            ray_stats_t sf;
+            use_path(paths[0]);
+            size_t first_short = tape_short_lanes();
+            tu_render(&s, &cam, tree, (ray_method_t)m, 1, &first, &sf);
+            for (int p = 1; p < npaths; p++) {
+                use_path(paths[p]);
+                ray_image_t img;
+                ray_stats_t st;
+                tu_render(&s, &cam, tree, (ray_method_t)m, 1, &img, &st);
+                const char *what =
+                    difference(&first, &sf, &img, &st, tape_short_lanes() == first_short);
+                if (what)
+                    fail_msg("%s, %s: %s on path %s differs from path %s", names[k],
+                             ray_method_name((ray_method_t)m), what, paths[p], paths[0]);
+                fewer += st.tape_evals < sf.tape_evals;
+                ray_image_free(&img);
+            }
+            ray_image_free(&first);
+        }
+        oct_free(tree);
+        scene_free(&s);
+    }
+    printf("renders %dx%d of %d scenes, %d methods: the same images on %d paths (%ld with "
+           "fewer passes on a padding path)\n",
+           size, size, TU_N_COMPARISON + 1, RAY_METHOD_COUNT, npaths, fewer);
+    tape_simd_select(NULL, NULL);
+}
+
 /* tape_simd_select refuses names it does not know, and NULL is the default. */
 static void test_select(void **state)
 {
@@ -244,6 +325,11 @@ static void test_select(void **state)
     assert_string_equal(tape_simd_name(), "portable");
     assert_int_equal(tape_simd_select(NULL, &err), 0);
     assert_true(tape_simd_available(tape_simd_name()));
+    /* the portable path runs the lanes it is given (no padding) */
+    assert_int_equal(tape_simd_select("portable", &err), 0);
+    assert_int_equal(tape_short_lanes(), 0);
+    assert_int_equal(tape_simd_select(NULL, &err), 0);
+    assert_true(tape_short_lanes() <= TAPE_BATCH);
 }
 
 int main(void)
@@ -252,6 +338,7 @@ int main(void)
         cmocka_unit_test(test_select),
         cmocka_unit_test(test_evaluators),
         cmocka_unit_test(test_trees),
+        cmocka_unit_test(test_renders),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

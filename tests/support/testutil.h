@@ -11,6 +11,7 @@
 
 #include "../../expr/interval.h"
 #include "../../expr/tape.h"
+#include "../../ray/ray.h"
 #include "../../scene/scene.h"
 
 /* splitmix64: fast, fixed-seed, good enough for test inputs */
@@ -90,8 +91,14 @@ int tu_image_size(int full);
 /* A point light to the right of the camera's target and above it, as far
  * from the target as the eye: a light from the side, so that every surface
  * casts shadows and holds attached ones. */
-struct ray_camera;
-void tu_side_light(const struct ray_camera *cam, double light[3]);
+void tu_side_light(const ray_camera_t *cam, double light[3]);
+
+/* Render scene s through cam with method m on `threads` threads into a new
+ * image (ray_image_free it): the octree source of tree, or the box source
+ * when tree is NULL; sampling's step 1/1000 of the box diagonal.  Fails the
+ * current test on error. */
+void tu_render(const scene_t *s, const ray_camera_t *cam, const oct_tree_t *tree,
+               ray_method_t m, int threads, ray_image_t *img, ray_stats_t *st);
 
 /* The whole file, NUL-terminated (not counted in *n; n may be NULL), malloc'd;
  * fails the current test when it cannot be read.  tu_read_stream: the same

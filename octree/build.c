@@ -627,18 +627,18 @@ int oct_plan_build(oct_plan_t *pl, const size_t *which, size_t n, ivoct_error_t 
         /* the subtree's counts on their own, so that a part of the tree (or a
            subtree sent elsewhere) carries its own; the worker keeps the top's */
         oct_stats_t kept = w->st;
-        double kept_d2 = w->max_diagonal2;
+        leaf_diagonal_t kept_diagonal = w->diagonal;
         memset(&w->st, 0, sizeof w->st);
-        w->max_diagonal2 = 0;
+        w->diagonal = (leaf_diagonal_t){0, {0, 0, 0}};
         e->base = build_subtree(w, w->wave, &e->pool, e->cell, &e->tape, e->single_use);
         if (pool_morton(w->b, &e->pool, e->base, 0))
             e->base = -1;
         pool_shrink(w->b, &e->pool);
         e->st = w->st;
-        e->max_diagonal2 = w->max_diagonal2;
+        e->max_diagonal2 = w->diagonal.d2;
         e->present = e->base >= 0;
         w->st = kept;
-        w->max_diagonal2 = kept_d2;
+        w->diagonal = kept_diagonal;
         size_t done = atomic_fetch_add(&finished, 1) + 1;
         if (params->progress && omp_get_thread_num() == 0)
             params->progress(params->progress_user, (double)done / (double)n);
@@ -794,7 +794,7 @@ int oct_plan_finish(oct_plan_t *pl, unsigned flags, oct_tree_t **out, ivoct_erro
     if (top)
         for (int i = 0; i < pl->nthreads; i++) {
             oct_stats_add(&tree->stats, &pl->workers[i].st);
-            d2 = pl->workers[i].max_diagonal2 > d2 ? pl->workers[i].max_diagonal2 : d2;
+            d2 = pl->workers[i].diagonal.d2 > d2 ? pl->workers[i].diagonal.d2 : d2;
         }
     for (size_t i = 0; i < pl->nfront; i++)
         if (pl->front[i].present) {

@@ -78,13 +78,13 @@ typedef struct chain_scratch {
     double (*centre)[3];
 } chain_scratch_t;
 
-/* The last leaf diagonal computed (chain.c, leaf_diagonal_squared). */
-typedef struct diagonal_memo {
-    int valid;
-    unsigned zeros;
-    double width[3];
+/* The largest squared diagonal of the leaves without a slab so far
+ * (cell_diagonal_squared), and the rounded-up widths of the leaf that gave it
+ * (chain.c, note_leaf_diagonal). */
+typedef struct leaf_diagonal {
     double d2;
-} diagonal_memo_t;
+    double u[3];
+} leaf_diagonal_t;
 
 /* One thread's evaluators and scratch. */
 typedef struct worker {
@@ -95,8 +95,7 @@ typedef struct worker {
     uint32_t *scratch;         /* 3 * tape->n */
     chain_scratch_t chain;
     struct wave *wave;         /* the levels of the subtree being built (build.c) */
-    double max_diagonal2;      /* the largest squared diagonal of a leaf without a slab */
-    diagonal_memo_t diagonal_memo;
+    leaf_diagonal_t diagonal;  /* the largest squared diagonal of a leaf without a slab */
     oct_stats_t st;
 } worker_t;
 
@@ -111,7 +110,7 @@ typedef struct frontier {
     long base;      /* the index in pool of the cell's children block */
     int present;    /* the subtree is built here or was put (oct_plan_put) */
     oct_stats_t st; /* its counts alone (the workers' hold the top phase's) */
-    double max_diagonal2; /* worker_t.max_diagonal2 over this subtree */
+    double max_diagonal2; /* worker_t.diagonal.d2 over this subtree */
 } frontier_t;
 
 /* ---- cell.c ----
@@ -121,18 +120,32 @@ typedef struct frontier {
  * one square root in all (the builder's max_error_bound). */
 double cell_diagonal_of_squared(double d2);
 
-/* The squared diagonal rounded up: the upper end of the interval sum of the
- * squared widths iv_sqr(iv_sub(hi, lo)) (iv_add of the three), bit for bit, with
- * only the upper ends computed (inline: it runs once per leaf without a slab). */
-static inline double cell_diagonal_squared(const iv_box_t *b)
+/* The widths of a box rounded up: the upper ends of iv_sub(hi, lo), which
+ * are their magnitudes (on a box, lo <= hi, the lower end lies in [-upper,
+ * upper]: both are hi - lo widened alike). */
+static inline void cell_widths_up(const iv_box_t *b, double u[3])
 {
     const iv_t *s = &b->x;
-    double sq[3];
-    /* iv_sub(hi, lo)'s magnitude is its upper end: on a box (lo <= hi) the
-     * lower end lies in [-upper, upper] (both are hi - lo widened alike) */
     for (int a = 0; a < 3; a++)
-        sq[a] = iv_sqr_hi(iv_add_up(s[a].hi, -s[a].lo));
-    return iv_add_up(iv_add_up(sq[0], sq[1]), sq[2]);
+        u[a] = iv_add_up(s[a].hi, -s[a].lo);
+}
+
+/* The squared diagonal rounded up from those widths: the upper end of the
+ * interval sum of their squares (iv_sqr, iv_add), bit for bit, with only the
+ * upper ends computed.  Every step rounds upward or is exact, so it grows
+ * with each width. */
+static inline double cell_diagonal_squared_of(const double u[3])
+{
+    return iv_add_up(iv_add_up(iv_sqr_hi(u[0]), iv_sqr_hi(u[1])), iv_sqr_hi(u[2]));
+}
+
+/* The squared diagonal of a box rounded up (inline: it runs once per leaf
+ * without a slab). */
+static inline double cell_diagonal_squared(const iv_box_t *b)
+{
+    double u[3];
+    cell_widths_up(b, u);
+    return cell_diagonal_squared_of(u);
 }
 
 /* ---- pool.c ---- */

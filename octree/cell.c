@@ -5,26 +5,6 @@
 
 #include "build_internal.h"
 
-/* 2^-d, exact: scaling by it is exact, so i * 2^-d is the fraction itself */
-static const double POW2NEG[OCT_MAX_DEPTH + 1] = {
-    0x1p-0,  0x1p-1,  0x1p-2,  0x1p-3,  0x1p-4,  0x1p-5,  0x1p-6,  0x1p-7,
-    0x1p-8,  0x1p-9,  0x1p-10, 0x1p-11, 0x1p-12, 0x1p-13, 0x1p-14, 0x1p-15,
-    0x1p-16, 0x1p-17, 0x1p-18, 0x1p-19, 0x1p-20, 0x1p-21,
-};
-
-double oct_coord(double lo, double hi, uint64_t i, int depth)
-{
-    uint64_t n = (uint64_t)1 << depth;
-    if (i == 0)
-        return lo;
-    if (i >= n)
-        return hi;
-    /* i / 2^depth is exact, so the same fraction at another depth gives the
-     * same double; each step is monotone in i, so neighbours never overlap */
-    double v = lo + (hi - lo) * ((double)i * POW2NEG[depth]);
-    return v < hi ? v : hi;
-}
-
 iv_box_t oct_cell_box(const double box[6], int depth, uint32_t ix, uint32_t iy, uint32_t iz)
 {
     iv_box_t b = {

@@ -56,27 +56,22 @@ static void make_slab(const ilie_t *l, const iv_box_t *box, int early, oct_slab_
     out->d_lo = lo, out->d_hi = hi, out->thickness = thick;
 }
 
-/* cell_diagonal_squared of a leaf's box.  It depends on the box only through
- * the rounded widths fl(hi - lo) and on which ends are 0 (where iv_sub is
- * exact); where the cells' corners are exact doubles (a box of dyadic bounds)
- * the leaves of a batch have equal widths and the last result is reused. */
-static double leaf_diagonal_squared(worker_t *w, const iv_box_t *b)
+/* Raise m->d2 to cell_diagonal_squared of a leaf's box when larger.  That
+ * grows with each of the box's rounded-up widths (cell_diagonal_squared_of),
+ * so a leaf whose widths are all within those of the leaf that set m->d2
+ * cannot raise it: most leaves of a build are settled by three subtractions
+ * and three comparisons. */
+static void note_leaf_diagonal(leaf_diagonal_t *m, const iv_box_t *b)
 {
-    const iv_t *s = &b->x;
-    double width[3];
-    unsigned zeros = 0;
-    for (int a = 0; a < 3; a++) {
-        width[a] = s[a].hi - s[a].lo;
-        zeros |= (unsigned)(s[a].lo == 0) << (2 * a) | (unsigned)(s[a].hi == 0) << (2 * a + 1);
+    double u[3];
+    cell_widths_up(b, u);
+    if (u[0] <= m->u[0] && u[1] <= m->u[1] && u[2] <= m->u[2])
+        return;
+    double d2 = cell_diagonal_squared_of(u);
+    if (d2 > m->d2) {
+        m->d2 = d2;
+        memcpy(m->u, u, sizeof u);
     }
-    diagonal_memo_t *m = &w->diagonal_memo;
-    if (m->valid && m->zeros == zeros && !memcmp(m->width, width, sizeof width))
-        return m->d2;
-    m->valid = 1;
-    m->zeros = zeros;
-    memcpy(m->width, width, sizeof width);
-    m->d2 = cell_diagonal_squared(b);
-    return m->d2;
 }
 
 /* The interval gradient over the open cells, into G[k]. */
@@ -235,9 +230,7 @@ void chain_classify(worker_t *w, const tape_t *t, int single_use, const cell_t *
                 if (out[k].slab.thickness > st->max_error_bound)
                     st->max_error_bound = out[k].slab.thickness;
             } else {
-                double d2 = leaf_diagonal_squared(w, &boxes[k]);
-                if (d2 > w->max_diagonal2)
-                    w->max_diagonal2 = d2;
+                note_leaf_diagonal(&w->diagonal, &boxes[k]);
             }
         } else {
             out[k].kind = SPLIT;

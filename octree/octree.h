@@ -26,6 +26,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "../expr/error.h"
 #include "../expr/tape.h"
@@ -220,10 +221,26 @@ int oct_plan_finish(oct_plan_t *plan, unsigned flags, oct_tree_t **out, ivoct_er
 /* Add the counts of from to to (sums, and the largest error bound). */
 void oct_stats_add(oct_stats_t *to, const oct_stats_t *from);
 
-/* Bound number i of 2^depth equal parts of [lo, hi]: oct_coord(lo, hi, 0, d) = lo,
- * oct_coord(lo, hi, 2^d, d) = hi, monotone in i, and the same double for the
- * same fraction i / 2^d at any depth. */
-double oct_coord(double lo, double hi, uint64_t i, int depth);
+/* Bound number i of 2^depth equal parts of [lo, hi] (0 <= depth <= 62):
+ * oct_coord(lo, hi, 0, d) = lo, oct_coord(lo, hi, 2^d, d) = hi, monotone in
+ * i, and the same double for the same fraction i / 2^d at any depth.  Inline:
+ * the builder and the ray walk compute bounds on every cell. */
+static inline double oct_coord(double lo, double hi, uint64_t i, int depth)
+{
+    uint64_t n = (uint64_t)1 << depth;
+    if (i == 0)
+        return lo;
+    if (i >= n)
+        return hi;
+    /* 2^-depth from its exponent bits; i < 2^53 and the scaling are exact,
+     * so i / 2^depth is the fraction itself, the same at any depth; each
+     * step is monotone in i, so neighbours never overlap */
+    uint64_t bits = (uint64_t)(1023 - depth) << 52;
+    double pow2neg;
+    memcpy(&pow2neg, &bits, sizeof pow2neg);
+    double v = lo + (hi - lo) * ((double)i * pow2neg);
+    return v < hi ? v : hi;
+}
 
 /* The box of the cell (depth, ix, iy, iz) of the tree's box. */
 iv_box_t oct_cell_box(const double box[6], int depth, uint32_t ix, uint32_t iy, uint32_t iz);

@@ -67,7 +67,6 @@
 enum { SRC_BOX, SRC_OCTREE, NSRC };
 static const char *const SRC_NAME[NSRC] = {"box", "octree"};
 
-
 /* Sampling against the reference; returns the failures (printed) and counts
  * the disagreeing pixels in *differ. */
 static size_t judge_sampling(const rck_ref_t *R, const ray_image_t *img, const char *what,
@@ -126,7 +125,8 @@ static void test_methods_against_reference(void **state)
         for (int j = 0; j < NSRC; j++)
             for (int m = 0; m < RAY_METHOD_COUNT; m++) {
                 ray_stats_t st;
-                tu_render(&s, &cam, j == SRC_OCTREE ? tree : NULL, (ray_method_t)m, 2, &img[j][m], &st);
+                tu_render(&s, &cam, j == SRC_OCTREE ? tree : NULL, (ray_method_t)m, 2,
+                          &img[j][m], &st);
                 char what[96];
                 snprintf(what, sizeof what, "%s %s %s", name, SRC_NAME[j],
                          ray_method_name((ray_method_t)m));

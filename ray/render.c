@@ -3,6 +3,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <threads.h>
 
 #include <omp.h>
 
@@ -196,16 +197,27 @@ static unsigned char to_srgb8(double c)
     return (unsigned char)(255.0 * pow(c, 1.0 / 2.2) + 0.5);
 }
 
+/* The background's bytes, computed once: most pixels of an image are
+ * misses, and pow costs more than the rest of their shading. */
+static const double background[3] = {0.012, 0.014, 0.02};
+static unsigned char background_rgb[3];
+static once_flag background_once = ONCE_FLAG_INIT;
+
+static void background_init(void)
+{
+    for (int i = 0; i < 3; i++)
+        background_rgb[i] = to_srgb8(background[i]);
+}
+
 void ray_shade(const ray_camera_t *cam, const double *light, const double p[3],
                const double d[3], const double n[3], int hit, int shadowed,
                unsigned char rgb[3])
 {
-    static const double background[3] = {0.012, 0.014, 0.02};
     /* the side ∇f points to (f increasing: "outside") warm, the other cool */
     static const double warm[3] = {0.92, 0.55, 0.22}, cool[3] = {0.25, 0.45, 0.85};
     if (!hit) {
-        for (int i = 0; i < 3; i++)
-            rgb[i] = to_srgb8(background[i]);
+        call_once(&background_once, background_init);
+        memcpy(rgb, background_rgb, sizeof background_rgb);
         return;
     }
     /* the point light, else one above and to the left of the eye, fixed to

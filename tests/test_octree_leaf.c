@@ -7,7 +7,8 @@
  * The doubles: zeros of both signs, the float and double subnormal ranges, the
  * float range's ends and beyond (overflow to an infinite bound only outward),
  * the infinities, NaN (stays NaN), and random bit patterns of every exponent;
- * the depth and code of keys at depths 0..21; oct_unmorton and oct_morton. */
+ * the depth and code of keys at depths 0..21; oct_unmorton and oct_morton;
+ * oct_coord against its definition lo + (hi - lo)·ldexp(i, -depth). */
 #define _POSIX_C_SOURCE 200809L
 #include <float.h>
 #include <math.h>
@@ -135,6 +136,43 @@ static void test_morton(void **state)
         }
 }
 
+/* oct_coord on random boxes of every magnitude and sign, depths 0..21: the
+ * ends exactly, lo + (hi - lo)·(i / 2^depth) rounded once (the fraction
+ * through ldexp, not oct_coord's exponent bits) and at most hi between, the
+ * same double for the same fraction one level deeper, non-decreasing in i. */
+static void test_coord(void **state)
+{
+    (void)state;
+    uint64_t rng = tu_seed(0x636f6fULL);
+    for (int trial = 0; trial < 2000; trial++) {
+        double scale = ldexp(1.0, (int)(tu_next(&rng) % 41) - 20);
+        double lo = (2 * tu_uniform(&rng) - 1) * scale;
+        double hi = lo + tu_uniform(&rng) * scale + DBL_MIN;
+        if (!(lo < hi))
+            continue;
+        for (int depth = 0; depth <= OCT_MAX_DEPTH; depth++) {
+            uint64_t n = (uint64_t)1 << depth;
+            assert_true(oct_coord(lo, hi, 0, depth) == lo);
+            assert_true(oct_coord(lo, hi, n, depth) == hi);
+            assert_true(oct_coord(lo, hi, n + 1, depth) == hi);
+            double prev = lo;
+            for (int k = 0; k < 40; k++) {
+                uint64_t i = k < 20 ? (uint64_t)k * n / 20 : tu_next(&rng) % (n + 1);
+                double v = oct_coord(lo, hi, i, depth);
+                double def = lo + (hi - lo) * ldexp((double)i, -depth);
+                if (i > 0 && i < n)
+                    assert_true(v == (def < hi ? def : hi));
+                assert_true(lo <= v && v <= hi);
+                assert_true(depth == OCT_MAX_DEPTH || oct_coord(lo, hi, 2 * i, depth + 1) == v);
+                if (k < 20) { /* the first 20 are increasing in i */
+                    assert_true(prev <= v);
+                    prev = v;
+                }
+            }
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -142,6 +180,7 @@ int main(void)
         cmocka_unit_test(test_random),
         cmocka_unit_test(test_key),
         cmocka_unit_test(test_morton),
+        cmocka_unit_test(test_coord),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

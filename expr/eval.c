@@ -175,9 +175,9 @@ static size_t padded(size_t m)
     return m < KERNEL_ALIGN ? m : (m + KERNEL_ALIGN - 1) / KERNEL_ALIGN * KERNEL_ALIGN;
 }
 
-/* The lanes of an interval or ray pass over m boxes: a short batch padded to
- * the path's short_lanes, which those passes run as a whole (kernels.h,
- * "Short batches"). */
+/* The lanes of a point, interval or ray pass over m boxes: a short batch
+ * padded to the path's short_lanes, which those passes run as a whole
+ * (kernels.h, "Short batches"). */
 static size_t padded_short(const tape_kernels_t *kern, size_t m)
 {
     return m < kern->short_lanes ? kern->short_lanes : padded(m);
@@ -209,7 +209,7 @@ void tape_eval_point(const tape_t *t, tape_ws_t *ws, size_t n, const double *x,
     const tape_kernels_t *kern = kernels();
     const double *in[6] = PASS_IN(ws);
     for (size_t base = 0; base < n; base += B) {
-        size_t m = n - base < B ? n - base : B, np = padded(m);
+        size_t m = n - base < B ? n - base : B, np = padded_short(kern, m);
         for (size_t k = 0; k < np; k++) {
             size_t j = base + (k < m ? k : 0);
             ws->in[k] = x[j], ws->in[B + k] = y[j], ws->in[2 * B + k] = z[j];

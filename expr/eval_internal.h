@@ -55,8 +55,8 @@ typedef struct tape_kernels {
      * radii; see tape_eval_ray) */
     void (*ray_inputs)(size_t nl, const double o[3], const double d[3], const double *tl,
                        const double *th, double *in);
-    /* Batches of fewer lanes than this go to the interval and ray passes
-     * padded to exactly this many, which those passes run through a copy
+    /* Batches of fewer lanes than this go to the point, interval and ray
+     * passes padded to exactly this many, which those passes run through a copy
      * compiled for that count (kernels.h, "Short batches"); 0: as they are. */
     size_t short_lanes;
 } tape_kernels_t;

@@ -136,7 +136,7 @@ static inline void K(interval_n)(const tape_t *t, double *LO, double *HI, size_t
 /* x^n by squaring, lanes innermost: much cheaper than pow() for the small
  * exponents of polynomial surfaces, and as accurate for a non-rigorous
  * evaluator */
-static void k_point_powi(double *restrict o, const double *restrict a, size_t nl, int n)
+static inline void k_point_powi(double *restrict o, const double *restrict a, size_t nl, int n)
 {
     unsigned m = n < 0 ? 0u - (unsigned)n : (unsigned)n;
     double x[B];
@@ -151,7 +151,7 @@ static void k_point_powi(double *restrict o, const double *restrict a, size_t nl
         for (size_t k = 0; k < nl; k++) o[k] = 1.0 / o[k];
 }
 
-static void K(point)(const tape_t *t, double *S, size_t nl, kernel_in_t in)
+static inline void K(point_n)(const tape_t *t, double *S, size_t nl, kernel_in_t in)
 {
     for (uint32_t i = 0; i < t->n; i++) {
         const tape_clause_t *c = &t->clauses[i];
@@ -709,7 +709,7 @@ static inline void K(ray_inputs_n)(size_t nl, const double o[3], const double d[
  * a few lanes run every lane loop's checks and scalar remainder, once per
  * clause and array: most of such a pass.  So on the paths whose
  * KERNEL_SHORT_LANES is not 0 (kernels_<target>.c: where it was measured to pay), the
- * interval and ray passes also exist compiled for exactly that many lanes
+ * point, interval and ray passes also exist compiled for exactly that many lanes
  * with every helper inlined (flatten), which turns each lane loop into a few
  * vector instructions, and eval.c pads a shorter batch to that count
  * (tape_kernels_t.short_lanes): the lanes are independent, so the padding
@@ -724,6 +724,11 @@ static inline void K(ray_inputs_n)(size_t nl, const double o[3], const double d[
 #else
 #define KERNEL_FLATTEN
 #endif
+
+KERNEL_FLATTEN static void K(point_short)(const tape_t *t, double *S, kernel_in_t in)
+{
+    K(point_n)(t, S, KERNEL_SHORT_LANES, in);
+}
 
 KERNEL_FLATTEN static void K(interval_short)(const tape_t *t, double *LO, double *HI,
                                              kernel_in_t in)
@@ -743,6 +748,17 @@ KERNEL_FLATTEN static void K(ray_inputs_short)(const double o[3], const double d
     K(ray_inputs_n)(KERNEL_SHORT_LANES, o, d, tl, th, in);
 }
 #endif
+
+static void K(point)(const tape_t *t, double *S, size_t nl, kernel_in_t in)
+{
+#if KERNEL_SHORT_LANES
+    if (nl == KERNEL_SHORT_LANES) {
+        K(point_short)(t, S, in);
+        return;
+    }
+#endif
+    K(point_n)(t, S, nl, in);
+}
 
 static void K(interval)(const tape_t *t, double *LO, double *HI, size_t nl, kernel_in_t in)
 {

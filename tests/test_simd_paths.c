@@ -6,7 +6,8 @@
  *     random boxes of every scene and of the expressions that exercise every
  *     op (tests/support: tu_op_exprs), in batches of TAPE_BATCH + 37 (a full
  *     pass, then a short padded one), must equal the portable path's results
- *     byte for byte (NaN payloads included: the evaluators make the same NaN);
+ *     byte for byte (NaN payloads included: the evaluators make the same NaN),
+ *     and 1 to 8 points evaluated alone the same points in the full batch;
  *   - the octree of every scene, with the scene's tests and with the whole
  *     chain, built with 1 and 2 threads, must save to the same .ivo bytes;
  *   - the renders of the comparison surfaces and the CSG union, every method,
@@ -79,6 +80,16 @@ static void evaluate(const tape_t *t, const iv_box_t *boxes, const double (*pt)[
     tape_eval_interval_choices(t, ws, NBOX, boxes, r->F, r->choices);
     tape_eval_grad(t, ws, NBOX, boxes, r->G);
     tape_eval_point(t, ws, NBOX, x, y, z, r->P);
+    /* 1 to 8 of the points again, as a short batch (padded and run by a pass
+     * of its own on some paths): the same bits */
+    for (int k = 1; k <= 8; k++) {
+        double Ps[8];
+        tape_eval_point(t, ws, (size_t)k, x + NBOX - k, y + NBOX - k, z + NBOX - k, Ps);
+        if (memcmp(Ps, r->P + NBOX - k, (size_t)k * sizeof *Ps))
+            fail_msg("path %s: %d points as a short batch differ from the same points in a "
+                     "full one",
+                     tape_simd_name(), k);
+    }
     tape_eval_ray(t, ws, o, d, NBOX, T, r->g, r->dg, r->rnd);
     tape_eval_ray(t, ws, o, d, NBOX, T, r->g_only, NULL, NULL);
     tape_ws_free(ws);

@@ -78,6 +78,8 @@ static void worker_free(worker_t *w)
 {
     if (w->wave)
         wave_free(w->b, w->wave);
+    pool_free(w->b, &w->work);
+    arena_close(&w->arena);
     tape_ws_free(w->ws);
     ilie_ws_free(w->ilie_ws);
     free(w->chain.ilie); /* the chain's scratch block */
@@ -630,10 +632,19 @@ int oct_plan_build(oct_plan_t *pl, const size_t *which, size_t n, ivoct_error_t 
         leaf_diagonal_t kept_diagonal = w->diagonal;
         memset(&w->st, 0, sizeof w->st);
         w->diagonal = (leaf_diagonal_t){0, {0, 0, 0}};
-        e->base = build_subtree(w, w->wave, &e->pool, e->cell, &e->tape, e->single_use);
-        if (pool_morton(w->b, &e->pool, e->base, 0))
-            e->base = -1;
-        pool_shrink(w->b, &e->pool);
+        pool_clear(&w->work);
+        e->base = build_subtree(w, w->wave, &w->work, e->cell, &e->tape, e->single_use);
+        if (e->base >= 0) {
+            const pool_t *p = &w->work;
+            oct_subtree_t built = {.base = (uint32_t)e->base,
+                                   .n_nodes = (uint32_t)p->n,
+                                   .n_leaves = (uint32_t)p->nl,
+                                   .nodes = p->nodes,
+                                   .leaves = p->leaves,
+                                   .slabs = build_keeps_slabs(w->b) ? p->slabs : NULL};
+            if (pool_morton(w->b, &built, 0, &w->arena, &e->pool))
+                e->base = -1;
+        }
         e->st = w->st;
         e->max_diagonal2 = w->diagonal.d2;
         e->present = e->base >= 0;
@@ -642,6 +653,11 @@ int oct_plan_build(oct_plan_t *pl, const size_t *which, size_t n, ivoct_error_t 
         size_t done = atomic_fetch_add(&finished, 1) + 1;
         if (params->progress && omp_get_thread_num() == 0)
             params->progress(params->progress_user, (double)done / (double)n);
+    }
+    /* the workers' pools are not needed until the next call */
+    for (int i = 0; i < pl->nthreads; i++) {
+        pool_free(&pl->b, &pl->workers[i].work);
+        arena_close(&pl->workers[i].arena);
     }
     return plan_failed(pl, err);
 }
@@ -693,26 +709,12 @@ int oct_plan_put(oct_plan_t *pl, size_t i, const oct_subtree_t *in, ivoct_error_
     frontier_t *e = &pl->front[i];
     pool_free(&pl->b, &e->pool);
     e->present = 0;
-    pool_t *p = &e->pool;
-    p->nodes = build_grow(&pl->b, NULL, &p->cap, in->n_nodes, sizeof *p->nodes);
-    p->leaves = in->n_leaves ? build_grow(&pl->b, NULL, &p->capl, in->n_leaves, sizeof *p->leaves)
-                             : NULL;
-    if (slabs && in->n_leaves)
-        p->slabs = build_grow(&pl->b, NULL, &p->caps, in->n_leaves, sizeof *p->slabs);
-    if (!p->nodes || (in->n_leaves && !p->leaves) || (slabs && in->n_leaves && !p->slabs))
-        return plan_failed(pl, err) ? -1 : (ivoct_error_set(err, "out of memory"), -1);
-    memcpy(p->nodes, in->nodes, in->n_nodes * sizeof *p->nodes);
-    p->n = in->n_nodes;
-    if (in->n_leaves) {
-        memcpy(p->leaves, in->leaves, in->n_leaves * sizeof *p->leaves);
-        if (slabs)
-            memcpy(p->slabs, in->slabs, in->n_leaves * sizeof *p->slabs);
-    }
-    p->nl = in->n_leaves;
     /* another process's subtree: its leaves may come in any order */
-    int morton = pool_morton(&pl->b, p, (long)in->base, 1);
+    oct_subtree_t src = *in;
+    if (!slabs)
+        src.slabs = NULL;
+    int morton = pool_morton(&pl->b, &src, 1, NULL, &e->pool);
     if (morton == -2) {
-        pool_free(&pl->b, p);
         ivoct_error_set(err, "subtree %zu is corrupt", i);
         return -1;
     }

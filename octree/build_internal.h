@@ -49,13 +49,18 @@ typedef struct build {
 
 enum { BUILD_OVER_BUDGET = 1, BUILD_OUT_OF_MEMORY = 2 };
 
-/* Nodes and leaves of one part of the tree, grown by doubling. */
+/* A block that the arrays of finished subtrees are carved from (pool.c). */
+typedef struct arena_chunk arena_chunk_t;
+
+/* Nodes and leaves of one part of the tree, grown by doubling while it is
+ * built. */
 typedef struct pool {
     oct_node_t *nodes;
     size_t n, cap;
     oct_leaf_t *leaves;
     oct_slab_t *slabs; /* parallel to leaves, when keeps_slabs */
     size_t nl, capl, caps;
+    arena_chunk_t *chunk; /* the arrays are in this chunk; NULL: malloc'd */
 } pool_t;
 
 /* Cells per chain_classify call: the children of CHAIN_BATCH / 8 cells that
@@ -95,6 +100,8 @@ typedef struct worker {
     uint32_t *scratch;         /* 3 * tape->n */
     chain_scratch_t chain;
     struct wave *wave;         /* the levels of the subtree being built (build.c) */
+    pool_t work;               /* the subtree being built, copied out when done */
+    arena_chunk_t *arena;      /* the chunk the finished subtrees are copied to */
     leaf_diagonal_t diagonal;  /* the largest squared diagonal of a leaf without a slab */
     oct_stats_t st;
 } worker_t;
@@ -152,6 +159,9 @@ static inline double cell_diagonal_squared(const iv_box_t *b)
 
 /* Count delta bytes (negative: freed); past the budget the build fails. */
 void build_account(build_t *b, ptrdiff_t delta);
+/* realloc(p, bytes); a large array asks for transparent huge pages, where
+ * the system has them, before its new part is touched (pool.c). */
+void *build_realloc(void *p, size_t bytes);
 /* Grow p (of *cap elements of size bytes) to hold need; NULL and the build
  * failed when out of memory. */
 void *build_grow(build_t *b, void *p, size_t *cap, size_t need, size_t size);
@@ -162,16 +172,23 @@ long pool_block(build_t *b, pool_t *p);
 /* Append the leaf of cell c; its index in the pool, or -1. */
 long pool_leaf(build_t *b, pool_t *p, cell_t c, const decision_t *d);
 void pool_free(build_t *b, pool_t *p);
-/* Give back the pool's unused capacity (a finished subtree). */
-void pool_shrink(build_t *b, pool_t *p);
-/* Put the leaves (and slabs) of a subtree's pool in Morton order, the order
- * of a depth-first walk from its children's block `base` (children 0..7),
- * renumbering the leaf words; the leaf arrays end exactly nl long.  0; -1
- * with the build failed (out of memory; the pool unchanged); -2 when the
- * walk reaches more or fewer leaves than the pool holds, or goes deeper than
- * a tree can, or (untrusted: a pool from oct_plan_put) reaches a leaf twice:
- * the pool is corrupt, and now unusable (free it). */
-int pool_morton(build_t *b, pool_t *p, long base, int untrusted);
+/* Empty the pool, keeping its arrays for the next subtree. */
+void pool_clear(pool_t *p);
+/* Copy a subtree (its words index its own arrays; base: its children's
+ * block) into the pool dst, in new arrays exactly as long as its contents,
+ * the leaves (and slabs, when src has them) in Morton order, the order of a
+ * depth-first walk from base (children 0..7), and the leaf words
+ * renumbered.  The arrays are carved from the worker's chunk *arena (a new
+ * one when it is full or NULL), or malloc'd when arena is NULL.  0; -1 with
+ * the build failed (out of memory); -2 when the walk reaches more or fewer
+ * leaves than src holds, or goes deeper than a tree can, or (untrusted: a
+ * subtree from oct_plan_put) reaches a leaf twice: src is corrupt.  dst is
+ * empty but on success. */
+int pool_morton(build_t *b, const oct_subtree_t *src, int untrusted, arena_chunk_t **arena,
+                pool_t *dst);
+/* The worker is done filling chunk *cur (freed once its pools are); *cur is
+ * then NULL. */
+void arena_close(arena_chunk_t **cur);
 /* The tree from the top pool and the subtrees' pools (each subtree's block
  * goes into node `slot` of the top pool; each pool in Morton order, by
  * pool_morton), leaves in Morton order; the subtrees' pools are freed on the

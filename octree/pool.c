@@ -2,14 +2,103 @@
  * assembly of the pools into one tree.
  *
  * Pools grow by doubling (no allocation per cell), and every allocation is
- * counted against the budget.  Each subtree of the depth-first phase has a
- * pool of its own; assembly concatenates them in frontier order and puts the
- * leaves in Morton order, so the tree does not depend on which thread built
- * which subtree. */
+ * counted against the budget.  Each subtree of the second phase is built in
+ * its worker's pool and then copied to arrays of its own, leaves in Morton
+ * order (pool_morton); assembly concatenates those in frontier order, so the
+ * tree does not depend on which thread built which subtree. */
+#define _DEFAULT_SOURCE /* madvise */
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
 
 #include "build_internal.h"
+
+/* A build fills hundreds of megabytes of fresh memory, which the kernel
+ * maps page by page on first touch.  Where a page fault is dear (a 2-vCPU
+ * virtual machine: ~5 us each, measured; the faults of 4 KiB pages were a
+ * quarter of a one-thread build) transparent huge pages cut their number
+ * 512-fold, but a kernel set to `madvise` grants them only where asked, and
+ * before the memory is touched.  So arrays of HUGE_ARRAY_BYTES and more ask
+ * for them as they are allocated or grown (realloc of a large block moves
+ * its pages rather than copying them, and the part added is still
+ * untouched).  The advice changes the mapping only; where it is refused or
+ * unknown the arrays are ordinary memory. */
+#define HUGE_ARRAY_BYTES ((size_t)4 << 20)
+
+void *build_realloc(void *p, size_t bytes)
+{
+    void *q = realloc(p, bytes);
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    if (q && bytes >= HUGE_ARRAY_BYTES) {
+        /* madvise wants a page-aligned start; the page holding q is ours too */
+        uintptr_t a = (uintptr_t)q & ~(uintptr_t)4095;
+        madvise((void *)a, bytes + ((uintptr_t)q - a), MADV_HUGEPAGE);
+    }
+#endif
+    return q;
+}
+
+/* The subtrees' arrays, written once each when a subtree is done
+ * (pool_morton), are carved from chunks rather than malloc'd one by one: a
+ * subtree's arrays are a few hundred kilobytes, too small for a huge page of
+ * their own, and together they are as large as the tree.  A chunk is
+ * 2 MiB-aligned with huge pages asked for, and twice as large as the one
+ * before it, from 2 MiB up to ARENA_CHUNK (a small build stays small); one
+ * worker fills it; it is freed when the last pool in it is freed and no
+ * worker fills it any more.  The budget counts the bytes of the pools, not
+ * of the chunks' unused ends. */
+#define ARENA_ALIGN ((size_t)2 << 20)
+#define ARENA_CHUNK ((size_t)32 << 20)
+
+struct arena_chunk {
+    size_t size, used; /* bytes, this header included */
+    size_t live;       /* pools in it not yet freed */
+    int open;          /* a worker still fills it */
+};
+
+static size_t round_up(size_t n, size_t to) { return (n + to - 1) / to * to; }
+
+static void chunk_release(arena_chunk_t *c)
+{
+    if (c && !c->open && !c->live)
+        free(c);
+}
+
+void arena_close(arena_chunk_t **cur)
+{
+    if (*cur) {
+        (*cur)->open = 0;
+        chunk_release(*cur);
+        *cur = NULL;
+    }
+}
+
+/* bytes (a multiple of 64) from the worker's chunk *cur, or a new one; NULL
+ * when out of memory. */
+static char *arena_take(arena_chunk_t **cur, size_t bytes)
+{
+    const size_t head = round_up(sizeof(arena_chunk_t), 64);
+    arena_chunk_t *c = *cur;
+    if (!c || c->size - c->used < bytes) {
+        size_t size = c && 2 * c->size < ARENA_CHUNK ? 2 * c->size : c ? ARENA_CHUNK : ARENA_ALIGN;
+        size = round_up(head + bytes > size ? head + bytes : size, ARENA_ALIGN);
+        c = aligned_alloc(ARENA_ALIGN, size);
+        if (!c)
+            return NULL;
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+        madvise(c, size, MADV_HUGEPAGE);
+#endif
+        *c = (arena_chunk_t){size, head, 0, 1};
+        arena_close(cur);
+        *cur = c;
+    }
+    char *p = (char *)c + c->used;
+    c->used += bytes;
+    return p;
+}
 
 void build_account(build_t *b, ptrdiff_t delta)
 {
@@ -30,7 +119,7 @@ void *build_grow(build_t *b, void *p, size_t *cap, size_t need, size_t size)
     size_t cap2 = *cap ? *cap : 64;
     while (cap2 < need)
         cap2 *= 2;
-    void *q = realloc(p, cap2 * size);
+    void *q = build_realloc(p, cap2 * size);
     if (!q) {
         int expected = 0;
         atomic_compare_exchange_strong(&b->failed, &expected, BUILD_OUT_OF_MEMORY);
@@ -78,102 +167,100 @@ void pool_free(build_t *b, pool_t *p)
 {
     build_account(b, -(ptrdiff_t)(p->cap * sizeof *p->nodes + p->capl * sizeof *p->leaves +
                             p->caps * sizeof *p->slabs));
-    free(p->nodes);
-    free(p->leaves);
-    free(p->slabs);
+    if (p->chunk) {
+        p->chunk->live--;
+        chunk_release(p->chunk);
+    } else {
+        free(p->nodes);
+        free(p->leaves);
+        free(p->slabs);
+    }
     memset(p, 0, sizeof *p);
 }
 
-void pool_shrink(build_t *b, pool_t *p)
+void pool_clear(pool_t *p)
 {
-    /* realloc to a smaller size keeps the data; a failure leaves the block */
-    oct_node_t *n = p->n && p->n < p->cap ? realloc(p->nodes, p->n * sizeof *n) : NULL;
-    if (n) {
-        build_account(b, -(ptrdiff_t)((p->cap - p->n) * sizeof *n));
-        p->nodes = n, p->cap = p->n;
-    }
-    oct_leaf_t *l = p->nl && p->nl < p->capl ? realloc(p->leaves, p->nl * sizeof *l) : NULL;
-    if (l) {
-        build_account(b, -(ptrdiff_t)((p->capl - p->nl) * sizeof *l));
-        p->leaves = l, p->capl = p->nl;
-    }
-    oct_slab_t *sl = p->nl && p->nl < p->caps ? realloc(p->slabs, p->nl * sizeof *sl) : NULL;
-    if (sl) {
-        build_account(b, -(ptrdiff_t)((p->caps - p->nl) * sizeof *sl));
-        p->slabs = sl, p->caps = p->nl;
-    }
+    p->n = p->nl = 0;
 }
 
-/* The leaves of the tree grow pool by pool, by a quarter at least (so that
- * the assembly's peak stays near one copy of the tree, and the copies of a
- * realloc that cannot remap add up to a few times the array); room for need
- * leaves, at most max.  0 or -1. */
-static int grow_leaves(build_t *b, oct_leaf_t **leaves, oct_slab_t **slabs, size_t *cap,
-                       size_t need, size_t max)
+/* The tree's leaves (and slabs) are allocated whole at the start of the
+ * assembly, but the kernel maps their pages only as the pools are copied in,
+ * while each pool copied is freed: the budget counts them as they fill
+ * (*counted of them so far, raised to `upto`), so that it sees what the
+ * assembly holds, little more than one copy of the tree. */
+static void count_filled(build_t *b, size_t *counted, size_t upto, size_t per_leaf)
 {
-    if (need <= *cap)
-        return 0;
-    size_t more = *cap + *cap / 4;
-    need = need > more ? need : more < max ? more : max;
-    oct_leaf_t *l = realloc(*leaves, need * sizeof *l);
-    if (!l)
-        return -1;
-    *leaves = l;
-    if (slabs) {
-        oct_slab_t *sl = realloc(*slabs, need * sizeof *sl);
-        if (!sl)
-            return -1;
-        *slabs = sl;
+    if (upto > *counted) {
+        build_account(b, (ptrdiff_t)((upto - *counted) * per_leaf));
+        *counted = upto;
     }
-    build_account(b, (ptrdiff_t)((need - *cap) * (sizeof *l + (slabs ? sizeof **slabs : 0))));
-    *cap = need;
-    return 0;
 }
 
 /* A depth-first walk's stack: at most 7 pending siblings per level, plus the
  * block being opened. */
 #define WALK_STACK (8 * (OCT_MAX_DEPTH + 2))
 
-/* A subtree's pool is built level by level, so its leaves come in
- * breadth-first order; the thread that built it puts them in Morton order,
- * so that the assembly, which runs on one thread, only copies (a walk over
- * every node of the tree there was ~15 % of a 2-thread build). */
-int pool_morton(build_t *b, pool_t *p, long base, int untrusted)
+/* A subtree is built level by level, so its leaves come in breadth-first
+ * order; the thread that built it puts them in Morton order, so that the
+ * assembly, which runs on one thread, only copies (a walk over every node of
+ * the tree there was ~15 % of a 2-thread build).  The copy is also what
+ * frees the worker's pool for the next subtree: the pool grows to the
+ * largest subtree once, and each subtree's arrays are written once, at
+ * their size. */
+int pool_morton(build_t *b, const oct_subtree_t *src, int untrusted, arena_chunk_t **arena,
+                pool_t *dst)
 {
-    if (p->nl == 0 || base < 0)
-        return 0;
-    int with_slabs = p->slabs != NULL;
-    oct_leaf_t *leaves = malloc(p->nl * sizeof *leaves);
-    oct_slab_t *slabs = with_slabs ? malloc(p->nl * sizeof *slabs) : NULL;
-    unsigned char *seen = untrusted ? calloc((p->nl + 7) / 8, 1) : NULL;
-    if (!leaves || (with_slabs && !slabs) || (untrusted && !seen)) {
-        free(leaves), free(slabs), free(seen);
+    memset(dst, 0, sizeof *dst);
+    size_t n = src->n_nodes, nl = src->n_leaves, base = src->base, ml = nl ? nl : 1;
+    int with_slabs = src->slabs != NULL;
+    size_t nb = round_up(n * sizeof(oct_node_t), 64), lb = round_up(ml * sizeof(oct_leaf_t), 64),
+           sb = with_slabs ? round_up(ml * sizeof(oct_slab_t), 64) : 0;
+    oct_node_t *nodes;
+    oct_leaf_t *leaves;
+    oct_slab_t *slabs = NULL;
+    if (arena) {
+        char *m = arena_take(arena, nb + lb + sb);
+        nodes = (oct_node_t *)m;
+        leaves = m ? (oct_leaf_t *)(m + nb) : NULL;
+        slabs = m && with_slabs ? (oct_slab_t *)(m + nb + lb) : NULL;
+    } else {
+        nodes = malloc(nb);
+        leaves = malloc(lb);
+        slabs = with_slabs ? malloc(sb) : NULL;
+    }
+    unsigned char *seen = untrusted ? calloc((nl + 7) / 8 + 1, 1) : NULL;
+    if (!nodes || !leaves || (with_slabs && !slabs) || (untrusted && !seen)) {
+        if (arena && nodes)
+            (*arena)->used -= nb + lb + sb;
+        else if (!arena)
+            free(nodes), free(leaves), free(slabs);
+        free(seen);
         int expected = 0;
         atomic_compare_exchange_strong(&b->failed, &expected, BUILD_OUT_OF_MEMORY);
         return -1;
     }
-    build_account(b, (ptrdiff_t)(p->nl * (sizeof *leaves + (with_slabs ? sizeof *slabs : 0))));
+    memcpy(nodes, src->nodes, n * sizeof *nodes);
     uint32_t stack[WALK_STACK];
     int sp = 0;
     for (int k = 7; k >= 0; k--)
         stack[sp++] = (uint32_t)base + (uint32_t)k;
-    /* a pool from elsewhere (oct_plan_put) has valid indices but may reach a
+    /* a subtree from elsewhere (oct_plan_put) has valid indices but may reach a
        leaf twice or never, or go deeper than a tree can */
     size_t next = 0;
     int corrupt = 0;
     while (sp > 0 && !corrupt) {
         uint32_t i = stack[--sp];
-        oct_node_t v = p->nodes[i];
+        oct_node_t v = nodes[i];
         if (OCT_NODE_KIND(v) == OCT_LEAF) {
             uint32_t k = OCT_NODE_VALUE(v);
-            corrupt = next == p->nl || (seen && seen[k / 8] >> (k % 8) & 1);
+            corrupt = next == nl || (seen && seen[k / 8] >> (k % 8) & 1);
             if (seen)
                 seen[k / 8] |= (unsigned char)(1u << (k % 8));
             if (!corrupt) {
-                leaves[next] = p->leaves[k];
+                leaves[next] = src->leaves[k];
                 if (with_slabs)
-                    slabs[next] = p->slabs[k];
-                p->nodes[i] = OCT_NODE(OCT_LEAF, (uint32_t)next++);
+                    slabs[next] = src->slabs[k];
+                nodes[i] = OCT_NODE(OCT_LEAF, (uint32_t)next++);
             }
         } else if (OCT_NODE_KIND(v) == OCT_INTERIOR) {
             corrupt = sp + 8 > WALK_STACK;
@@ -182,16 +269,23 @@ int pool_morton(build_t *b, pool_t *p, long base, int untrusted)
         }
     }
     free(seen);
-    if (corrupt || next != p->nl) {
-        build_account(b, -(ptrdiff_t)(p->nl * (sizeof *leaves + (with_slabs ? sizeof *slabs : 0))));
-        free(leaves), free(slabs);
+    if (corrupt || next != nl) {
+        if (arena)
+            (*arena)->used -= nb + lb + sb;
+        else
+            free(nodes), free(leaves), free(slabs);
         return -2;
     }
-    build_account(b, -(ptrdiff_t)(p->capl * sizeof *p->leaves + p->caps * sizeof *p->slabs));
-    free(p->leaves);
-    free(p->slabs);
-    p->leaves = leaves, p->slabs = slabs;
-    p->capl = p->nl, p->caps = with_slabs ? p->nl : 0;
+    dst->nodes = nodes, dst->n = dst->cap = n;
+    dst->leaves = leaves, dst->slabs = slabs;
+    dst->nl = nl, dst->capl = ml;
+    dst->caps = with_slabs ? ml : 0;
+    if (arena) {
+        dst->chunk = *arena;
+        dst->chunk->live++;
+    }
+    build_account(b, (ptrdiff_t)(dst->cap * sizeof *nodes + dst->capl * sizeof *leaves +
+                                 dst->caps * sizeof *slabs));
     return 0;
 }
 
@@ -203,9 +297,9 @@ int pool_morton(build_t *b, pool_t *p, long base, int untrusted)
  * shifted and freed.
  *
  * Memory: the frontier is in Morton order, so the pools' blocks of leaves
- * come in increasing order; the tree's leaf array grows as the pools go and
- * each pool is freed once copied, so the assembly holds little more than one
- * copy of the tree. */
+ * come in increasing order; the tree's leaf array fills as the pools go and
+ * each pool is freed once copied (its chunk with the last of its pools), so
+ * the assembly holds little more than one copy of the tree. */
 int pool_assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct_tree_t *tree)
 {
     int with_slabs = build_keeps_slabs(b);
@@ -216,19 +310,20 @@ int pool_assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct
         atomic_store(&b->failed, BUILD_OUT_OF_MEMORY);
         return -1;
     }
-    oct_node_t *nodes = malloc(nn * sizeof *nodes);
+    oct_node_t *nodes = build_realloc(NULL, nn * sizeof *nodes);
     if (nodes)
         build_account(b, (ptrdiff_t)(nn * sizeof *nodes));
     size_t *leaf_at = malloc((nfront ? nfront : 1) * sizeof *leaf_at); /* per pool */
     uint32_t *top_leaf = malloc((top->nl ? top->nl : 1) * sizeof *top_leaf); /* its number */
     uint32_t *slot_of = malloc((top->n ? top->n : 1) * sizeof *slot_of);  /* pool + 1, or 0 */
-    oct_leaf_t *leaves = NULL;
-    oct_slab_t *slabs = NULL;
-    size_t capl = 0, ml = nl ? nl : 1;
-    int failed = !nodes || !leaf_at || !top_leaf || !slot_of ||
-                 grow_leaves(b, &leaves, with_slabs ? &slabs : NULL, &capl, top->nl ? top->nl : 1, ml);
+    size_t ml = nl ? nl : 1, counted = 0;
+    size_t per_leaf = sizeof(oct_leaf_t) + (with_slabs ? sizeof(oct_slab_t) : 0);
+    oct_leaf_t *leaves = build_realloc(NULL, ml * sizeof *leaves);
+    oct_slab_t *slabs = with_slabs ? build_realloc(NULL, ml * sizeof *slabs) : NULL;
+    int failed = !nodes || !leaf_at || !top_leaf || !slot_of || !leaves || (with_slabs && !slabs);
     if (failed)
         goto out;
+    count_filled(b, &counted, top->nl, per_leaf);
 
     /* the numbering: a depth-first walk of the top pool */
     memset(slot_of, 0, top->n * sizeof *slot_of);
@@ -277,20 +372,14 @@ int pool_assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct
         nodes[front[i].slot] = OCT_NODE(OCT_INTERIOR, (size_t)front[i].base + on);
         on += p->n;
         if (p->nl) {
-            if (grow_leaves(b, &leaves, with_slabs ? &slabs : NULL, &capl, ol + p->nl, ml)) {
-                failed = 1;
-                goto out;
-            }
+            count_filled(b, &counted, ol + p->nl, per_leaf);
             memcpy(leaves + ol, p->leaves, p->nl * sizeof *leaves);
             if (with_slabs)
                 memcpy(slabs + ol, p->slabs, p->nl * sizeof *slabs);
         }
         pool_free(b, p);
     }
-    if (grow_leaves(b, &leaves, with_slabs ? &slabs : NULL, &capl, ml, ml)) {
-        failed = 1;
-        goto out;
-    }
+    count_filled(b, &counted, ml, per_leaf);
     for (size_t j = 0; j < top->nl; j++) {
         leaves[top_leaf[j]] = top->leaves[j];
         if (with_slabs)

@@ -159,9 +159,6 @@ static inline double cell_diagonal_squared(const iv_box_t *b)
 
 /* Count delta bytes (negative: freed); past the budget the build fails. */
 void build_account(build_t *b, ptrdiff_t delta);
-/* realloc(p, bytes); a large array asks for transparent huge pages, where
- * the system has them, before its new part is touched (pool.c). */
-void *build_realloc(void *p, size_t bytes);
 /* Grow p (of *cap elements of size bytes) to hold need; NULL and the build
  * failed when out of memory. */
 void *build_grow(build_t *b, void *p, size_t *cap, size_t need, size_t size);

@@ -31,6 +31,7 @@
 
 #include "../io/io.h"
 #include "file_internal.h"
+#include "huge.h"
 #include "octree.h"
 
 #define MAGIC "IVOCTREE"
@@ -396,13 +397,16 @@ int file_load_tree(const char *path, oct_tree_t **out, oct_source_t *src, uint64
         ivoct_error_set(err, "%s: not an ivoct octree file (bad magic)", path);
         return -1;
     }
+    /* the whole file in one buffer, of its size when the file says (one
+       more byte, so that the read ends at EOF), else grown by doubling */
+    long size = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
     rewind(f);
     unsigned char *data = NULL;
     size_t n = 0, cap = 0;
     for (;;) {
         if (n == cap) {
-            cap = cap ? 2 * cap : 1 << 16;
-            unsigned char *q = cap <= MAX_FILE ? realloc(data, cap) : NULL;
+            cap = cap ? 2 * cap : size > 0 && (size_t)size < MAX_FILE ? (size_t)size + 1 : 1 << 16;
+            unsigned char *q = cap <= MAX_FILE ? huge_realloc(data, cap) : NULL;
             if (!q) {
                 free(data);
                 fclose(f);
@@ -510,12 +514,13 @@ int file_load_tree(const char *path, oct_tree_t **out, oct_source_t *src, uint64
         why = "bad header or truncated tree";
         goto fail;
     }
-    t->nodes = malloc(((size_t)t->n_nodes + 1) * sizeof *t->nodes);
-    t->leaves = calloc((size_t)t->n_leaves + 1, sizeof *t->leaves);
+    t->nodes = huge_realloc(NULL, ((size_t)t->n_nodes + 1) * sizeof *t->nodes);
+    t->leaves = huge_realloc(NULL, ((size_t)t->n_leaves + 1) * sizeof *t->leaves);
     if (!t->nodes || !t->leaves) {
         why = "out of memory";
         goto fail;
     }
+    memset(&t->leaves[t->n_leaves], 0, sizeof *t->leaves);
     for (uint32_t i = 0; i < t->n_nodes; i++)
         t->nodes[i] = get_u32(&r);
     for (uint32_t i = 0; i < t->n_leaves; i++) {
@@ -530,7 +535,7 @@ int file_load_tree(const char *path, oct_tree_t **out, oct_source_t *src, uint64
             t->leaves[i].key = 0;
     }
     if (has_slabs) {
-        t->slabs = malloc(((size_t)t->n_leaves + 1) * sizeof *t->slabs);
+        t->slabs = huge_realloc(NULL, ((size_t)t->n_leaves + 1) * sizeof *t->slabs);
         if (!t->slabs) {
             why = "out of memory";
             goto fail;

@@ -6,47 +6,18 @@
  * its worker's pool and then copied to arrays of its own, leaves in Morton
  * order (pool_morton); assembly concatenates those in frontier order, so the
  * tree does not depend on which thread built which subtree. */
-#define _DEFAULT_SOURCE /* madvise */
-#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
 
 #include "build_internal.h"
-
-/* A build fills hundreds of megabytes of fresh memory, which the kernel
- * maps page by page on first touch.  Where a page fault is dear (a 2-vCPU
- * virtual machine: ~5 us each, measured; the faults of 4 KiB pages were a
- * quarter of a one-thread build) transparent huge pages cut their number
- * 512-fold, but a kernel set to `madvise` grants them only where asked, and
- * before the memory is touched.  So arrays of HUGE_ARRAY_BYTES and more ask
- * for them as they are allocated or grown (realloc of a large block moves
- * its pages rather than copying them, and the part added is still
- * untouched).  The advice changes the mapping only; where it is refused or
- * unknown the arrays are ordinary memory. */
-#define HUGE_ARRAY_BYTES ((size_t)4 << 20)
-
-void *build_realloc(void *p, size_t bytes)
-{
-    void *q = realloc(p, bytes);
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-    if (q && bytes >= HUGE_ARRAY_BYTES) {
-        /* madvise wants a page-aligned start; the page holding q is ours too */
-        uintptr_t a = (uintptr_t)q & ~(uintptr_t)4095;
-        madvise((void *)a, bytes + ((uintptr_t)q - a), MADV_HUGEPAGE);
-    }
-#endif
-    return q;
-}
+#include "huge.h"
 
 /* The subtrees' arrays, written once each when a subtree is done
  * (pool_morton), are carved from chunks rather than malloc'd one by one: a
  * subtree's arrays are a few hundred kilobytes, too small for a huge page of
  * their own, and together they are as large as the tree.  A chunk is
- * 2 MiB-aligned with huge pages asked for, and twice as large as the one
- * before it, from 2 MiB up to ARENA_CHUNK (a small build stays small); one
+ * 2 MiB-aligned with huge pages asked for (huge.h), and twice as large as
+ * the one before it, from 2 MiB up to ARENA_CHUNK (a small build stays small); one
  * worker fills it; it is freed when the last pool in it is freed and no
  * worker fills it any more.  The budget counts the bytes of the pools, not
  * of the chunks' unused ends. */
@@ -88,9 +59,7 @@ static char *arena_take(arena_chunk_t **cur, size_t bytes)
         c = aligned_alloc(ARENA_ALIGN, size);
         if (!c)
             return NULL;
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-        madvise(c, size, MADV_HUGEPAGE);
-#endif
+        huge_advise(c, size);
         *c = (arena_chunk_t){size, head, 0, 1};
         arena_close(cur);
         *cur = c;
@@ -119,7 +88,7 @@ void *build_grow(build_t *b, void *p, size_t *cap, size_t need, size_t size)
     size_t cap2 = *cap ? *cap : 64;
     while (cap2 < need)
         cap2 *= 2;
-    void *q = build_realloc(p, cap2 * size);
+    void *q = huge_realloc(p, cap2 * size);
     if (!q) {
         int expected = 0;
         atomic_compare_exchange_strong(&b->failed, &expected, BUILD_OUT_OF_MEMORY);
@@ -310,7 +279,7 @@ int pool_assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct
         atomic_store(&b->failed, BUILD_OUT_OF_MEMORY);
         return -1;
     }
-    oct_node_t *nodes = build_realloc(NULL, nn * sizeof *nodes);
+    oct_node_t *nodes = huge_realloc(NULL, nn * sizeof *nodes);
     if (nodes)
         build_account(b, (ptrdiff_t)(nn * sizeof *nodes));
     size_t *leaf_at = malloc((nfront ? nfront : 1) * sizeof *leaf_at); /* per pool */
@@ -318,8 +287,8 @@ int pool_assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct
     uint32_t *slot_of = malloc((top->n ? top->n : 1) * sizeof *slot_of);  /* pool + 1, or 0 */
     size_t ml = nl ? nl : 1, counted = 0;
     size_t per_leaf = sizeof(oct_leaf_t) + (with_slabs ? sizeof(oct_slab_t) : 0);
-    oct_leaf_t *leaves = build_realloc(NULL, ml * sizeof *leaves);
-    oct_slab_t *slabs = with_slabs ? build_realloc(NULL, ml * sizeof *slabs) : NULL;
+    oct_leaf_t *leaves = huge_realloc(NULL, ml * sizeof *leaves);
+    oct_slab_t *slabs = with_slabs ? huge_realloc(NULL, ml * sizeof *slabs) : NULL;
     int failed = !nodes || !leaf_at || !top_leaf || !slot_of || !leaves || (with_slabs && !slabs);
     if (failed)
         goto out;

@@ -9,7 +9,14 @@
  * the same.  The three plans' parts (OCT_PLAN_PART, the top's leaves in the
  * first only) hold between them every leaf of the tree exactly once, and their
  * counts add up to the tree's.  A subtree with an index out of range is
- * refused by oct_plan_put; a finish with a subtree missing is an error. */
+ * refused by oct_plan_put; a finish with a subtree missing is an error.
+ *
+ * The finished subtrees are stored in chunks that many subtrees share and
+ * that are freed with the last of them (octree/pool.c): a tree deep enough to
+ * fill several chunks is the same built on one thread, on two, and one
+ * subtree per oct_plan_build call in reverse order (each call closes its
+ * chunks, so every subtree has one of its own, freed in another order than
+ * made); its peak memory stays within twice its storage. */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <setjmp.h>
@@ -189,6 +196,53 @@ static void check_scene(const char *name, int chain)
     scene_free(&s);
 }
 
+static void assert_same_tree(const oct_tree_t *a, const oct_tree_t *b)
+{
+    assert_int_equal(a->n_nodes, b->n_nodes);
+    assert_int_equal(a->n_leaves, b->n_leaves);
+    assert_memory_equal(a->nodes, b->nodes, b->n_nodes * sizeof *b->nodes);
+    assert_memory_equal(a->leaves, b->leaves, b->n_leaves * sizeof *b->leaves);
+}
+
+static void test_chunks(void **state)
+{
+    (void)state;
+    scene_t s;
+    tu_load_scene("gumdrop", &s);
+    ivoct_error_t err;
+    ivoct_error_clear(&err);
+    /* depth 8: ~5 MB of leaves and nodes, past the first chunks (2, 4 MiB) */
+    oct_params_t p = {.depth = 8, .tests = OCT_TEST_INTERVAL, .threads = 1};
+    oct_tree_t *one, *two, *pieces;
+    if (oct_build(s.tape, s.box, &p, &one, &err))
+        fail_msg("oct_build: %s", err.msg);
+    size_t storage = one->n_nodes * sizeof *one->nodes + one->n_leaves * sizeof *one->leaves;
+    assert_true(storage > ((size_t)6 << 20));
+    assert_true(one->stats.peak_bytes >= storage && one->stats.peak_bytes <= 2 * storage);
+    p.threads = 2;
+    if (oct_build(s.tape, s.box, &p, &two, &err))
+        fail_msg("oct_build: %s", err.msg);
+    assert_same_tree(two, one);
+    assert_true(two->stats.peak_bytes <= 2 * storage);
+
+    oct_plan_t *plan;
+    if (oct_plan_new(s.tape, s.box, &p, &plan, &err))
+        fail_msg("oct_plan_new: %s", err.msg);
+    size_t n = oct_plan_subtrees(plan);
+    assert_true(n >= 256);
+    for (size_t k = n; k-- > 0;)
+        if (oct_plan_build(plan, &k, 1, &err))
+            fail_msg("oct_plan_build %zu: %s", k, err.msg);
+    if (oct_plan_finish(plan, 0, &pieces, &err))
+        fail_msg("oct_plan_finish: %s", err.msg);
+    assert_same_tree(pieces, one);
+    oct_plan_free(plan);
+    oct_free(pieces);
+    oct_free(two);
+    oct_free(one);
+    scene_free(&s);
+}
+
 static void test_parts(void **state)
 {
     (void)state;
@@ -199,6 +253,6 @@ static void test_parts(void **state)
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {cmocka_unit_test(test_parts)};
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_parts), cmocka_unit_test(test_chunks)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -479,19 +479,11 @@ static void render(const scene_t *s, const oct_tree_t *tree, int use_slabs, int 
     ray_camera_t cam;
     assert_int_equal(ray_camera_init(&cam, s->camera.eye, s->camera.target, s->camera.up, s->camera.fov, size, size, &err),
                      0);
-    assert_int_equal(ray_image_alloc(img, size, size, &err), 0);
     ray_box_source_t bs;
     ray_octree_source_t os;
     ray_source_t src = tree ? ray_octree_source(&os, tree) : ray_box_source(&bs, s->box);
     os.use_slabs = use_slabs;
-    ray_render_opts_t o;
-    ray_render_opts_default(&o);
-    o.method = m;
-    o.threads = threads;
-    double dx = s->box[1] - s->box[0], dy = s->box[3] - s->box[2], dz = s->box[5] - s->box[4];
-    o.roots.sample_step = sqrt(dx * dx + dy * dy + dz * dz) / 1000;
-    if (ray_render(s->tape, &cam, &src, &o, img, st, &err))
-        fail_msg("render: %s", err.msg);
+    tu_render_source(s, &cam, &src, m, threads, img, st);
 }
 
 /* Both miss, or both hit with t equal to 1e-12 relative. */

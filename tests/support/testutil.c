@@ -186,24 +186,30 @@ void tu_side_light(const ray_camera_t *cam, double light[3])
         light[a] = cam->target[a] + r * (0.8 * cam->right[a] + 0.6 * cam->vup[a]);
 }
 
-void tu_render(const scene_t *s, const ray_camera_t *cam, const oct_tree_t *tree,
-               ray_method_t m, int threads, ray_image_t *img, ray_stats_t *st)
+void tu_render_source(const scene_t *s, const ray_camera_t *cam, const ray_source_t *src,
+                      ray_method_t m, int threads, ray_image_t *img, ray_stats_t *st)
 {
     ivoct_error_t err;
     ivoct_error_clear(&err);
     if (ray_image_alloc(img, cam->width, cam->height, &err))
         fail_msg("ray_image_alloc: %s", err.msg);
-    ray_box_source_t bs;
-    ray_octree_source_t os;
-    ray_source_t src = tree ? ray_octree_source(&os, tree) : ray_box_source(&bs, s->box);
     ray_render_opts_t o;
     ray_render_opts_default(&o);
     o.method = m;
     o.threads = threads;
     double dx = s->box[1] - s->box[0], dy = s->box[3] - s->box[2], dz = s->box[5] - s->box[4];
     o.roots.sample_step = sqrt(dx * dx + dy * dy + dz * dz) / 1000;
-    if (ray_render(s->tape, cam, &src, &o, img, st, &err))
+    if (ray_render(s->tape, cam, src, &o, img, st, &err))
         fail_msg("render: %s", err.msg);
+}
+
+void tu_render(const scene_t *s, const ray_camera_t *cam, const oct_tree_t *tree,
+               ray_method_t m, int threads, ray_image_t *img, ray_stats_t *st)
+{
+    ray_box_source_t bs;
+    ray_octree_source_t os;
+    ray_source_t src = tree ? ray_octree_source(&os, tree) : ray_box_source(&bs, s->box);
+    tu_render_source(s, cam, &src, m, threads, img, st);
 }
 
 void tu_load_scene(const char *name, scene_t *s)

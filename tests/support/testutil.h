@@ -96,9 +96,12 @@ void tu_side_light(const ray_camera_t *cam, double light[3]);
 /* Render scene s through cam with method m on `threads` threads into a new
  * image (ray_image_free it): the octree source of tree, or the box source
  * when tree is NULL; sampling's step 1/1000 of the box diagonal.  Fails the
- * current test on error. */
+ * current test on error.  tu_render_source: the same from a source of the
+ * caller's (an octree source with its options changed). */
 void tu_render(const scene_t *s, const ray_camera_t *cam, const oct_tree_t *tree,
                ray_method_t m, int threads, ray_image_t *img, ray_stats_t *st);
+void tu_render_source(const scene_t *s, const ray_camera_t *cam, const ray_source_t *src,
+                      ray_method_t m, int threads, ray_image_t *img, ray_stats_t *st);
 
 /* The whole file, NUL-terminated (not counted in *n; n may be NULL), malloc'd;
  * fails the current test when it cannot be read.  tu_read_stream: the same

@@ -517,6 +517,7 @@ struct oct_plan {
     size_t nfront;
     double t0;
     int finished;      /* oct_plan_finish took the pools */
+    arena_chunk_t *put_arena; /* the chunk oct_plan_put copies subtrees to */
 };
 
 /* The build's failure as a message; 0 when it has not failed. */
@@ -536,6 +537,7 @@ void oct_plan_free(oct_plan_t *pl)
     if (!pl)
         return;
     frontier_free(&pl->b, pl->front, pl->nfront);
+    arena_close(&pl->put_arena);
     pool_free(&pl->b, &pl->top);
     if (pl->workers)
         for (int i = 0; i < pl->nthreads; i++)
@@ -713,7 +715,7 @@ int oct_plan_put(oct_plan_t *pl, size_t i, const oct_subtree_t *in, ivoct_error_
     oct_subtree_t src = *in;
     if (!slabs)
         src.slabs = NULL;
-    int morton = pool_morton(&pl->b, &src, 1, NULL, &e->pool);
+    int morton = pool_morton(&pl->b, &src, 1, &pl->put_arena, &e->pool);
     if (morton == -2) {
         ivoct_error_set(err, "subtree %zu is corrupt", i);
         return -1;
@@ -773,6 +775,7 @@ int oct_plan_finish(oct_plan_t *pl, unsigned flags, oct_tree_t **out, ivoct_erro
         pl->top.nl = 0;
     }
     pl->finished = 1;
+    arena_close(&pl->put_arena); /* so that the assembly frees it with its last pool */
     pool_assemble(&pl->b, &pl->top, front, held, tree);
     if (front != pl->front) {
         /* the held pools belong to the copies now: the assembly freed some */

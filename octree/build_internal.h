@@ -60,7 +60,7 @@ typedef struct pool {
     oct_leaf_t *leaves;
     oct_slab_t *slabs; /* parallel to leaves, when keeps_slabs */
     size_t nl, capl, caps;
-    arena_chunk_t *chunk; /* the arrays are in this chunk; NULL: malloc'd */
+    arena_chunk_t *chunk; /* the arrays are in this chunk (pool_morton); NULL: malloc'd */
 } pool_t;
 
 /* Cells per chain_classify call: the children of CHAIN_BATCH / 8 cells that
@@ -175,15 +175,15 @@ void pool_clear(pool_t *p);
  * block) into the pool dst, in new arrays exactly as long as its contents,
  * the leaves (and slabs, when src has them) in Morton order, the order of a
  * depth-first walk from base (children 0..7), and the leaf words
- * renumbered.  The arrays are carved from the worker's chunk *arena (a new
- * one when it is full or NULL), or malloc'd when arena is NULL.  0; -1 with
+ * renumbered.  The arrays are carved from the chunk *arena (a new one when
+ * it is full or NULL), which one thread fills.  0; -1 with
  * the build failed (out of memory); -2 when the walk reaches more or fewer
  * leaves than src holds, or goes deeper than a tree can, or (untrusted: a
  * subtree from oct_plan_put) reaches a leaf twice: src is corrupt.  dst is
  * empty but on success. */
 int pool_morton(build_t *b, const oct_subtree_t *src, int untrusted, arena_chunk_t **arena,
                 pool_t *dst);
-/* The worker is done filling chunk *cur (freed once its pools are); *cur is
+/* The thread is done filling chunk *cur (freed once its pools are); *cur is
  * then NULL. */
 void arena_close(arena_chunk_t **cur);
 /* The tree from the top pool and the subtrees' pools (each subtree's block

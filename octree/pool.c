@@ -54,7 +54,9 @@ static char *arena_take(arena_chunk_t **cur, size_t bytes)
     const size_t head = round_up(sizeof(arena_chunk_t), 64);
     arena_chunk_t *c = *cur;
     if (!c || c->size - c->used < bytes) {
-        size_t size = c && 2 * c->size < ARENA_CHUNK ? 2 * c->size : c ? ARENA_CHUNK : ARENA_ALIGN;
+        size_t size = c ? 2 * c->size : ARENA_ALIGN;
+        if (size > ARENA_CHUNK)
+            size = ARENA_CHUNK;
         size = round_up(head + bytes > size ? head + bytes : size, ARENA_ALIGN);
         c = aligned_alloc(ARENA_ALIGN, size);
         if (!c)
@@ -184,30 +186,19 @@ int pool_morton(build_t *b, const oct_subtree_t *src, int untrusted, arena_chunk
     int with_slabs = src->slabs != NULL;
     size_t nb = round_up(n * sizeof(oct_node_t), 64), lb = round_up(ml * sizeof(oct_leaf_t), 64),
            sb = with_slabs ? round_up(ml * sizeof(oct_slab_t), 64) : 0;
-    oct_node_t *nodes;
-    oct_leaf_t *leaves;
-    oct_slab_t *slabs = NULL;
-    if (arena) {
-        char *m = arena_take(arena, nb + lb + sb);
-        nodes = (oct_node_t *)m;
-        leaves = m ? (oct_leaf_t *)(m + nb) : NULL;
-        slabs = m && with_slabs ? (oct_slab_t *)(m + nb + lb) : NULL;
-    } else {
-        nodes = malloc(nb);
-        leaves = malloc(lb);
-        slabs = with_slabs ? malloc(sb) : NULL;
-    }
+    char *m = arena_take(arena, nb + lb + sb);
     unsigned char *seen = untrusted ? calloc((nl + 7) / 8 + 1, 1) : NULL;
-    if (!nodes || !leaves || (with_slabs && !slabs) || (untrusted && !seen)) {
-        if (arena && nodes)
+    if (!m || (untrusted && !seen)) {
+        if (m) /* the last bytes taken from *arena: given back */
             (*arena)->used -= nb + lb + sb;
-        else if (!arena)
-            free(nodes), free(leaves), free(slabs);
         free(seen);
         int expected = 0;
         atomic_compare_exchange_strong(&b->failed, &expected, BUILD_OUT_OF_MEMORY);
         return -1;
     }
+    oct_node_t *nodes = (oct_node_t *)m;
+    oct_leaf_t *leaves = (oct_leaf_t *)(m + nb);
+    oct_slab_t *slabs = with_slabs ? (oct_slab_t *)(m + nb + lb) : NULL;
     memcpy(nodes, src->nodes, n * sizeof *nodes);
     uint32_t stack[WALK_STACK];
     int sp = 0;
@@ -239,20 +230,15 @@ int pool_morton(build_t *b, const oct_subtree_t *src, int untrusted, arena_chunk
     }
     free(seen);
     if (corrupt || next != nl) {
-        if (arena)
-            (*arena)->used -= nb + lb + sb;
-        else
-            free(nodes), free(leaves), free(slabs);
+        (*arena)->used -= nb + lb + sb;
         return -2;
     }
     dst->nodes = nodes, dst->n = dst->cap = n;
     dst->leaves = leaves, dst->slabs = slabs;
     dst->nl = nl, dst->capl = ml;
     dst->caps = with_slabs ? ml : 0;
-    if (arena) {
-        dst->chunk = *arena;
-        dst->chunk->live++;
-    }
+    dst->chunk = *arena;
+    dst->chunk->live++;
     build_account(b, (ptrdiff_t)(dst->cap * sizeof *nodes + dst->capl * sizeof *leaves +
                                  dst->caps * sizeof *slabs));
     return 0;

@@ -30,8 +30,8 @@
 #include <xxhash.h>
 
 #include "../io/io.h"
+#include "../mem/mem.h"
 #include "file_internal.h"
-#include "huge.h"
 #include "octree.h"
 
 #define MAGIC "IVOCTREE"
@@ -406,7 +406,7 @@ int file_load_tree(const char *path, oct_tree_t **out, oct_source_t *src, uint64
     for (;;) {
         if (n == cap) {
             cap = cap ? 2 * cap : size > 0 && (size_t)size < MAX_FILE ? (size_t)size + 1 : 1 << 16;
-            unsigned char *q = cap <= MAX_FILE ? huge_realloc(data, cap) : NULL;
+            unsigned char *q = cap <= MAX_FILE ? mem_huge_realloc(data, cap) : NULL;
             if (!q) {
                 free(data);
                 fclose(f);
@@ -514,8 +514,8 @@ int file_load_tree(const char *path, oct_tree_t **out, oct_source_t *src, uint64
         why = "bad header or truncated tree";
         goto fail;
     }
-    t->nodes = huge_realloc(NULL, ((size_t)t->n_nodes + 1) * sizeof *t->nodes);
-    t->leaves = huge_realloc(NULL, ((size_t)t->n_leaves + 1) * sizeof *t->leaves);
+    t->nodes = mem_huge_realloc(NULL, ((size_t)t->n_nodes + 1) * sizeof *t->nodes);
+    t->leaves = mem_huge_realloc(NULL, ((size_t)t->n_leaves + 1) * sizeof *t->leaves);
     if (!t->nodes || !t->leaves) {
         why = "out of memory";
         goto fail;
@@ -535,7 +535,7 @@ int file_load_tree(const char *path, oct_tree_t **out, oct_source_t *src, uint64
             t->leaves[i].key = 0;
     }
     if (has_slabs) {
-        t->slabs = huge_realloc(NULL, ((size_t)t->n_leaves + 1) * sizeof *t->slabs);
+        t->slabs = mem_huge_realloc(NULL, ((size_t)t->n_leaves + 1) * sizeof *t->slabs);
         if (!t->slabs) {
             why = "out of memory";
             goto fail;

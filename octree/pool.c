@@ -10,17 +10,26 @@
 #include <string.h>
 
 #include "build_internal.h"
-#include "huge.h"
+#include "../mem/mem.h"
 
 /* The subtrees' arrays, written once each when a subtree is done
  * (pool_morton), are carved from chunks rather than malloc'd one by one: a
  * subtree's arrays are a few hundred kilobytes, too small for a huge page of
  * their own, and together they are as large as the tree.  A chunk is
- * 2 MiB-aligned with huge pages asked for (huge.h), and twice as large as
+ * 2 MiB-aligned with huge pages asked for (mem/mem.h), and twice as large as
  * the one before it, from 2 MiB up to ARENA_CHUNK (a small build stays small); one
  * worker fills it; it is freed when the last pool in it is freed and no
  * worker fills it any more.  The budget counts the bytes of the pools, not
- * of the chunks' unused ends. */
+ * of the chunks' unused ends.
+ *
+ * The assembly frees the pools one by one as it copies them into the tree,
+ * in frontier order, which is the order a chunk was filled in (or its
+ * reverse, when subtrees were built in reverse): the freed room grows from
+ * one end of the chunk, and each 2 MiB page it covers wholly goes back to the
+ * system at once (mem_release), not when the whole chunk is freed.  The
+ * tree's own fresh pages, touched by the same copies, are then those pages
+ * again: on a virtual machine, pages the host supplies anew cost ~20 times
+ * more than pages the guest gives back and takes again (mem/mem.h). */
 #define ARENA_ALIGN ((size_t)2 << 20)
 #define ARENA_CHUNK ((size_t)32 << 20)
 
@@ -28,6 +37,9 @@ struct arena_chunk {
     size_t size, used; /* bytes, this header included */
     size_t live;       /* pools in it not yet freed */
     int open;          /* a worker still fills it */
+    size_t low;        /* the pools below this offset are freed */
+    size_t kept_lo, kept_hi; /* the pages outside [kept_lo, kept_hi) are released
+                                (never the first, which holds this header) */
 };
 
 static size_t round_up(size_t n, size_t to) { return (n + to - 1) / to * to; }
@@ -61,8 +73,8 @@ static char *arena_take(arena_chunk_t **cur, size_t bytes)
         c = aligned_alloc(ARENA_ALIGN, size);
         if (!c)
             return NULL;
-        huge_advise(c, size);
-        *c = (arena_chunk_t){size, head, 0, 1};
+        mem_huge_advise(c, size);
+        *c = (arena_chunk_t){size, head, 0, 1, head, ARENA_ALIGN, size};
         arena_close(cur);
         *cur = c;
     }
@@ -90,7 +102,7 @@ void *build_grow(build_t *b, void *p, size_t *cap, size_t need, size_t size)
     size_t cap2 = *cap ? *cap : 64;
     while (cap2 < need)
         cap2 *= 2;
-    void *q = huge_realloc(p, cap2 * size);
+    void *q = mem_huge_realloc(p, cap2 * size);
     if (!q) {
         int expected = 0;
         atomic_compare_exchange_strong(&b->failed, &expected, BUILD_OUT_OF_MEMORY);
@@ -134,13 +146,46 @@ long pool_leaf(build_t *b, pool_t *p, cell_t c, const decision_t *d)
     return (long)p->nl++;
 }
 
+/* The bytes of a pool carved from a chunk (pool_morton's layout). */
+static size_t pool_bytes(const pool_t *p)
+{
+    return round_up(p->cap * sizeof *p->nodes, 64) + round_up(p->capl * sizeof *p->leaves, 64) +
+           round_up(p->caps * sizeof *p->slabs, 64);
+}
+
+/* The pool at [at, at + bytes) of closed chunk c was freed: when it was the
+ * lowest or the highest live one, the live room shrinks, and the pages no
+ * longer in it go back to the system (the page holding the header stays).
+ * A pool freed from the middle only waits for the chunk's free. */
+static void chunk_shrink(arena_chunk_t *c, size_t at, size_t bytes)
+{
+    if (at == c->low)
+        c->low = at + bytes;
+    else if (at + bytes == c->used)
+        c->used = at;
+    else
+        return;
+    size_t lo = c->low / ARENA_ALIGN * ARENA_ALIGN, hi = round_up(c->used, ARENA_ALIGN);
+    if (lo > c->kept_lo) {
+        mem_release((char *)c + c->kept_lo, lo - c->kept_lo);
+        c->kept_lo = lo;
+    }
+    if (hi < c->kept_hi && hi >= c->kept_lo) {
+        mem_release((char *)c + hi, c->kept_hi - hi);
+        c->kept_hi = hi;
+    }
+}
+
 void pool_free(build_t *b, pool_t *p)
 {
     build_account(b, -(ptrdiff_t)(p->cap * sizeof *p->nodes + p->capl * sizeof *p->leaves +
                             p->caps * sizeof *p->slabs));
     if (p->chunk) {
-        p->chunk->live--;
-        chunk_release(p->chunk);
+        arena_chunk_t *c = p->chunk;
+        c->live--;
+        if (!c->open && c->live)
+            chunk_shrink(c, (size_t)((char *)p->nodes - (char *)c), pool_bytes(p));
+        chunk_release(c);
     } else {
         free(p->nodes);
         free(p->leaves);
@@ -265,7 +310,7 @@ int pool_assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct
         atomic_store(&b->failed, BUILD_OUT_OF_MEMORY);
         return -1;
     }
-    oct_node_t *nodes = huge_realloc(NULL, nn * sizeof *nodes);
+    oct_node_t *nodes = mem_huge_realloc(NULL, nn * sizeof *nodes);
     if (nodes)
         build_account(b, (ptrdiff_t)(nn * sizeof *nodes));
     size_t *leaf_at = malloc((nfront ? nfront : 1) * sizeof *leaf_at); /* per pool */
@@ -273,8 +318,8 @@ int pool_assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct
     uint32_t *slot_of = malloc((top->n ? top->n : 1) * sizeof *slot_of);  /* pool + 1, or 0 */
     size_t ml = nl ? nl : 1, counted = 0;
     size_t per_leaf = sizeof(oct_leaf_t) + (with_slabs ? sizeof(oct_slab_t) : 0);
-    oct_leaf_t *leaves = huge_realloc(NULL, ml * sizeof *leaves);
-    oct_slab_t *slabs = with_slabs ? huge_realloc(NULL, ml * sizeof *slabs) : NULL;
+    oct_leaf_t *leaves = mem_huge_realloc(NULL, ml * sizeof *leaves);
+    oct_slab_t *slabs = with_slabs ? mem_huge_realloc(NULL, ml * sizeof *slabs) : NULL;
     int failed = !nodes || !leaf_at || !top_leaf || !slot_of || !leaves || (with_slabs && !slabs);
     if (failed)
         goto out;

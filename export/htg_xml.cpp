@@ -205,7 +205,7 @@ private:
         }
         // a big one: encoded by threads (pieces of a multiple of 3 bytes) into its
         // own buffer, written after the text before it
-        std::unique_ptr<char[]> enc(new char[size]);
+        HugeArray<char> enc = huge_array<char>(size);
         const size_t piece = 3 * ((size_t)1 << 16);
         const size_t pieces = (total + piece - 1) / piece;
         parallel_chunks(pieces, 1, std::min(threads_, (int)std::min(pieces, (size_t)64)),
@@ -226,7 +226,7 @@ private:
 
 // ---- the trees ----------------------------------------------------------------------
 // Is there a surface leaf at or below node i?  Into s[] for the whole subtree.
-bool mark_surface(const oct_tree_t *tree, uint32_t i, std::vector<uint8_t> &s)
+bool mark_surface(const oct_tree_t *tree, uint32_t i, HugeVector<uint8_t> &s)
 {
     const oct_node_t w = tree->nodes[i];
     bool has = OCT_NODE_KIND(w) == OCT_LEAF;
@@ -239,7 +239,7 @@ bool mark_surface(const oct_tree_t *tree, uint32_t i, std::vector<uint8_t> &s)
 
 // The nodes below n in a vtkHyperTree's numbering of a tree built depth first
 // (a split node's children take the next 8 numbers when the walk reaches it).
-void creation_order(const oct_tree_t *tree, const HtgNode &n, std::vector<HtgNode> &out)
+void creation_order(const oct_tree_t *tree, const HtgNode &n, HugeVector<HtgNode> &out)
 {
     if (!is_split(tree, n))
         return;
@@ -263,16 +263,17 @@ struct Tree {
 // written once).
 struct Cells {
     explicit Cells(size_t n, bool with_certain)
-        : depth(new int32_t[n]), f_center(new double[n]), f_lo(new double[n]),
-          f_hi(new double[n]), surface(new uint8_t[n]), cls(new int8_t[n]),
-          certain(with_certain ? new uint8_t[n] : nullptr)
+        : depth(huge_array<int32_t>(n)), f_center(huge_array<double>(n)),
+          f_lo(huge_array<double>(n)), f_hi(huge_array<double>(n)),
+          surface(huge_array<uint8_t>(n)), cls(huge_array<int8_t>(n)),
+          certain(with_certain ? huge_array<uint8_t>(n) : nullptr)
     {
     }
-    std::unique_ptr<int32_t[]> depth;
-    std::unique_ptr<double[]> f_center, f_lo, f_hi;
-    std::unique_ptr<uint8_t[]> surface;
-    std::unique_ptr<int8_t[]> cls;
-    std::unique_ptr<uint8_t[]> certain;
+    HugeArray<int32_t> depth;
+    HugeArray<double> f_center, f_lo, f_hi;
+    HugeArray<uint8_t> surface;
+    HugeArray<int8_t> cls;
+    HugeArray<uint8_t> certain;
 };
 
 // The bounds of the cells, from a table of depth T = min(D, 16) per axis
@@ -307,8 +308,8 @@ private:
     std::vector<double> table_[3];
 };
 
-Cells cell_values(const oct_tree_t *tree, const tape_t *tape, const std::vector<HtgNode> &nodes,
-                  const std::vector<uint8_t> &surface)
+Cells cell_values(const oct_tree_t *tree, const tape_t *tape, const HugeVector<HtgNode> &nodes,
+                  const HugeVector<uint8_t> &surface)
 {
     const size_t total = nodes.size();
     Cells v(total, tree->certain != nullptr);
@@ -414,12 +415,12 @@ void write_htg_trees(const oct_tree_t *tree, const tape_t *tape, const oct_sourc
         return tree_index(a) < tree_index(b);
     });
 
-    std::vector<uint8_t> surface(tree->n_nodes);
+    HugeVector<uint8_t> surface(tree->n_nodes);
     for (const HtgNode &r : roots)
         mark_surface(tree, r.node, surface);
 
     // each tree breadth first: its depths, its descriptor; the output order
-    std::vector<HtgNode> nodes, bfs;
+    HugeVector<HtgNode> nodes, bfs;
     nodes.reserve(tree->n_nodes);
     std::vector<Tree> trees;
     Bits desc;                    // 2.0: all trees, every depth but the last
@@ -430,7 +431,7 @@ void write_htg_trees(const oct_tree_t *tree, const tape_t *tape, const oct_sourc
             bfs.clear();
             tree_desc.emplace_back();
         }
-        std::vector<HtgNode> &level = piece ? bfs : nodes;
+        HugeVector<HtgNode> &level = piece ? bfs : nodes;
         Bits &d = piece ? tree_desc.back() : desc;
         const size_t start = level.size();
         level.push_back(r);
@@ -458,11 +459,11 @@ void write_htg_trees(const oct_tree_t *tree, const tape_t *tape, const oct_sourc
         }
         trees.push_back(std::move(t));
     }
-    std::vector<HtgNode>().swap(bfs);
+    HugeVector<HtgNode>().swap(bfs);
     const size_t total = nodes.size();
     const Cells v = cell_values(tree, tape, nodes, surface);
-    std::vector<HtgNode>().swap(nodes);
-    std::vector<uint8_t>().swap(surface);
+    HugeVector<HtgNode>().swap(nodes);
+    HugeVector<uint8_t>().swap(surface);
 
     Writer w(path, writer_threads(tree, (size_t)-1));
     std::string &t = w.text();

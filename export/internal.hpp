@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <functional>
 #include <memory>
@@ -17,10 +18,12 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 #include "export.h"
 #include "io/io.h"
+#include "mem/mem.h"
 
 namespace ivexp {
 
@@ -45,6 +48,56 @@ template <class F> int guard(ivoct_error_t *err, F &&body) noexcept
     }
     return -1;
 }
+
+// ---- large arrays on huge pages (mem/mem.h) ------------------------------------------
+// The writers fill hundreds of megabytes of fresh memory (sort keys, cell values,
+// compressed and encoded arrays); in 4 KiB pages every page is a fault (~5 us each
+// on a 2-vCPU virtual machine, most of a writer's time there).  Large arrays come
+// from mem_huge_alloc instead: whole 2 MiB pages, asked for before they are touched.
+struct FreeMemory {
+    void operator()(void *p) const noexcept { std::free(p); }
+};
+template <class T> using HugeArray = std::unique_ptr<T[], FreeMemory>;
+
+// n elements of T, not initialised (as new T[n] for these types); bad_alloc when
+// out of memory.
+template <class T> HugeArray<T> huge_array(size_t n)
+{
+    static_assert(std::is_trivially_copyable<T>::value && std::is_trivially_destructible<T>::value,
+                  "huge_array holds plain data");
+    if (n > SIZE_MAX / sizeof(T))
+        throw std::bad_alloc();
+    void *p = mem_huge_alloc(n ? n * sizeof(T) : 1);
+    if (!p)
+        throw std::bad_alloc();
+    return HugeArray<T>(static_cast<T *>(p));
+}
+
+// std::vector's allocator for the same (HugeVector<T>).
+template <class T> struct HugeAllocator {
+    using value_type = T;
+    HugeAllocator() = default;
+    template <class U> HugeAllocator(const HugeAllocator<U> &) noexcept {}
+    T *allocate(size_t n)
+    {
+        if (n > SIZE_MAX / sizeof(T))
+            throw std::bad_alloc();
+        void *p = mem_huge_alloc(n * sizeof(T));
+        if (!p)
+            throw std::bad_alloc();
+        return static_cast<T *>(p);
+    }
+    void deallocate(T *p, size_t) noexcept { std::free(p); }
+};
+template <class T, class U> bool operator==(const HugeAllocator<T> &, const HugeAllocator<U> &)
+{
+    return true;
+}
+template <class T, class U> bool operator!=(const HugeAllocator<T> &, const HugeAllocator<U> &)
+{
+    return false;
+}
+template <class T> using HugeVector = std::vector<T, HugeAllocator<T>>;
 
 // An output file opened with io_open; aborted (temporary removed) unless
 // committed.
@@ -176,7 +229,7 @@ constexpr size_t LZ4_BLOCK = 32768;  // vtkXMLWriter's default BlockSize
 
 struct Lz4Blocks {
     std::vector<uint64_t> header;  // the compressed-data header (host order: little-endian)
-    std::unique_ptr<char[]> data;  // the compressed blocks end to end
+    HugeArray<char> data;          // the compressed blocks end to end
     size_t size = 0;               // bytes in data
     size_t header_bytes() const { return header.size() * sizeof(uint64_t); }
     size_t bytes() const { return header_bytes() + size; }

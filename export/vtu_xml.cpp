@@ -370,7 +370,7 @@ private:
             }
             start[z + 1] = sum;
         }
-        std::unique_ptr<uint64_t[]> faces(new uint64_t[2 * n]);
+        HugeArray<uint64_t> faces = huge_array<uint64_t>(2 * n);
         parallel_chunks(runs, 1, (int)runs, [&](size_t r, size_t, int) {
             for (size_t i = run_start(r); i < run_start(r + 1); i++) {
                 uint32_t a[3], s;
@@ -383,7 +383,7 @@ private:
         std::vector<std::vector<size_t>>().swap(at);
 
         // each slice: its corners sorted and numbered, its distinct keys kept
-        local_.reset(new uint32_t[8 * n]);
+        local_ = huge_array<uint32_t>(8 * n);
         const size_t chunk = (n_slices + 64 * (size_t)threads - 1) / (64 * (size_t)threads);
         const size_t n_chunks = (n_slices + chunk - 1) / chunk;
         std::vector<std::vector<uint32_t>> chunk_keys(n_chunks);
@@ -424,11 +424,11 @@ private:
                     std::memcpy(&local_[Face::corner(face[q])], &ids[4 * q], 4 * sizeof(uint32_t));
             }
         });
-        std::unique_ptr<uint64_t[]>().swap(faces);
+        faces.reset();
         for (size_t z = 0; z < n_slices; z++)
             first_point_[z + 1] += first_point_[z];
         n_points_ = first_point_[n_slices];
-        keys_.reset(new uint32_t[n_points_ ? n_points_ : 1]);
+        keys_ = huge_array<uint32_t>(n_points_);
         for (size_t c = 0; c < n_chunks; c++) {
             std::copy(chunk_keys[c].begin(), chunk_keys[c].end(), keys_.get() + first_point_[c * chunk]);
             norm_.add(chunk_norm[c]);
@@ -444,7 +444,7 @@ private:
     // total last), the points' (y, x) keys, each corner's number in its slice
     std::vector<double> table_[3];
     std::vector<size_t> first_point_;
-    std::unique_ptr<uint32_t[]> keys_, local_;
+    HugeArray<uint32_t> keys_, local_;
     // sorted whole: the points, each corner's point
     std::vector<Corner> corners_;
     std::vector<uint64_t> global_;

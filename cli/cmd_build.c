@@ -305,8 +305,8 @@ static int write_save(const scene_t *s, const oct_tree_t *t, io_group_t *g, cons
  * VTK and OpenVDB allocate inside, so their needs are estimates: the growth of
  * the peak resident size measured per unit (ivoct build on gumdrop and sphere
  * at depths 7 and 8; cli/README.md) with a margin of about 1.5. */
-#define MEM_VTU_PER_LEAF 500.0    /* measured 113 .. 136 bytes, 235 .. 331 with slabs (vtu_xml.cpp) */
-#define MEM_HTG_PER_NODE 75.0     /* measured 49 .. 50 bytes per node (export/htg_xml.cpp) */
+#define MEM_VTU_PER_LEAF 500.0    /* measured 61 .. 133 bytes, 125 .. 216 with slabs (vtu_xml.cpp) */
+#define MEM_HTG_PER_NODE 105.0    /* measured 31 .. 70 bytes per node (export/htg_xml.cpp) */
 #define MEM_VDB_PER_VOXEL 400.0   /* measured 131 .. 246 bytes per voxel of the max depth */
 #define MEM_VDB_FIXED (8.0 * 1024 * 1024)
 

@@ -514,8 +514,8 @@ int file_load_tree(const char *path, oct_tree_t **out, oct_source_t *src, uint64
         why = "bad header or truncated tree";
         goto fail;
     }
-    t->nodes = mem_huge_realloc(NULL, ((size_t)t->n_nodes + 1) * sizeof *t->nodes);
-    t->leaves = mem_huge_realloc(NULL, ((size_t)t->n_leaves + 1) * sizeof *t->leaves);
+    t->nodes = mem_huge_alloc(((size_t)t->n_nodes + 1) * sizeof *t->nodes);
+    t->leaves = mem_huge_alloc(((size_t)t->n_leaves + 1) * sizeof *t->leaves);
     if (!t->nodes || !t->leaves) {
         why = "out of memory";
         goto fail;
@@ -535,7 +535,7 @@ int file_load_tree(const char *path, oct_tree_t **out, oct_source_t *src, uint64
             t->leaves[i].key = 0;
     }
     if (has_slabs) {
-        t->slabs = mem_huge_realloc(NULL, ((size_t)t->n_leaves + 1) * sizeof *t->slabs);
+        t->slabs = mem_huge_alloc(((size_t)t->n_leaves + 1) * sizeof *t->slabs);
         if (!t->slabs) {
             why = "out of memory";
             goto fail;

@@ -310,7 +310,7 @@ int pool_assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct
         atomic_store(&b->failed, BUILD_OUT_OF_MEMORY);
         return -1;
     }
-    oct_node_t *nodes = mem_huge_realloc(NULL, nn * sizeof *nodes);
+    oct_node_t *nodes = mem_huge_alloc(nn * sizeof *nodes);
     if (nodes)
         build_account(b, (ptrdiff_t)(nn * sizeof *nodes));
     size_t *leaf_at = malloc((nfront ? nfront : 1) * sizeof *leaf_at); /* per pool */
@@ -318,8 +318,8 @@ int pool_assemble(build_t *b, pool_t *top, frontier_t *front, size_t nfront, oct
     uint32_t *slot_of = malloc((top->n ? top->n : 1) * sizeof *slot_of);  /* pool + 1, or 0 */
     size_t ml = nl ? nl : 1, counted = 0;
     size_t per_leaf = sizeof(oct_leaf_t) + (with_slabs ? sizeof(oct_slab_t) : 0);
-    oct_leaf_t *leaves = mem_huge_realloc(NULL, ml * sizeof *leaves);
-    oct_slab_t *slabs = with_slabs ? mem_huge_realloc(NULL, ml * sizeof *slabs) : NULL;
+    oct_leaf_t *leaves = mem_huge_alloc(ml * sizeof *leaves);
+    oct_slab_t *slabs = with_slabs ? mem_huge_alloc(ml * sizeof *slabs) : NULL;
     int failed = !nodes || !leaf_at || !top_leaf || !slot_of || !leaves || (with_slabs && !slabs);
     if (failed)
         goto out;

@@ -59,21 +59,8 @@ struct FreeMemory {
 };
 template <class T> using HugeArray = std::unique_ptr<T[], FreeMemory>;
 
-// n elements of T, not initialised (as new T[n] for these types); bad_alloc when
-// out of memory.
-template <class T> HugeArray<T> huge_array(size_t n)
-{
-    static_assert(std::is_trivially_copyable<T>::value && std::is_trivially_destructible<T>::value,
-                  "huge_array holds plain data");
-    if (n > SIZE_MAX / sizeof(T))
-        throw std::bad_alloc();
-    void *p = mem_huge_alloc(n ? n * sizeof(T) : 1);
-    if (!p)
-        throw std::bad_alloc();
-    return HugeArray<T>(static_cast<T *>(p));
-}
-
-// std::vector's allocator for the same (HugeVector<T>).
+// std::vector's allocator over mem_huge_alloc (HugeVector<T>); bad_alloc when out of
+// memory.
 template <class T> struct HugeAllocator {
     using value_type = T;
     HugeAllocator() = default;
@@ -98,6 +85,14 @@ template <class T, class U> bool operator!=(const HugeAllocator<T> &, const Huge
     return false;
 }
 template <class T> using HugeVector = std::vector<T, HugeAllocator<T>>;
+
+// n elements of T, not initialised (as new T[n] for these types).
+template <class T> HugeArray<T> huge_array(size_t n)
+{
+    static_assert(std::is_trivially_copyable<T>::value && std::is_trivially_destructible<T>::value,
+                  "huge_array holds plain data");
+    return HugeArray<T>(HugeAllocator<T>().allocate(n ? n : 1));
+}
 
 // An output file opened with io_open; aborted (temporary removed) unless
 // committed.

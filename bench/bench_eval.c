@@ -1,8 +1,9 @@
 /* Benchmark: nanoseconds per tape clause and per box (or point) for the point,
- * interval, interval+gradient, affine (ILIE) and ray (value, derivative along
- * the ray and rounding bound: tape_eval_ray) evaluators, with calls of
- * TAPE_BATCH boxes (ray: segments of one ray through the scene box), on scene files, for every SIMD path this machine runs
- * (side by side in one run).
+ * interval, interval+gradient, point+gradient (plain doubles), affine (ILIE)
+ * and ray (value, derivative along the ray and rounding bound:
+ * tape_eval_ray) evaluators, with calls of TAPE_BATCH boxes (ray: segments of
+ * one ray through the scene box), on scene files, for every SIMD path this
+ * machine runs (side by side in one run).
  * Usage: ivoct_bench_eval [--seconds S] [--ray-lanes N] SCENE...
  * Prints one row per scene and path, and the ratios interval/point and
  * gradient/interval.  --ray-lanes N (1..TAPE_BATCH): the ray evaluator's calls
@@ -37,6 +38,7 @@ typedef struct {
     iv_t T[NBOX], dT[NBOX];
     double rnd[NBOX];
     double P[NBOX];
+    tape_point_grad_t Q[NBOX];
     ilie_ws_t *iws;
     ilie_t A[NBOX];
 } bench_t;
@@ -57,6 +59,13 @@ static void run_grad(bench_t *b)
 {
     for (int i = 0; i < NBOX; i += TAPE_BATCH)
         tape_eval_grad(b->t, b->ws, TAPE_BATCH, b->box + i, b->G + i);
+}
+
+static void run_point_grad(bench_t *b)
+{
+    for (int i = 0; i < NBOX; i += TAPE_BATCH)
+        tape_eval_point_grad(b->t, b->ws, TAPE_BATCH, b->px + i, b->py + i, b->pz + i,
+                             b->Q + i);
 }
 
 static int ray_lanes = TAPE_BATCH; /* segments per tape_eval_ray call */
@@ -112,8 +121,9 @@ int main(int argc, char **argv)
                 TAPE_BATCH);
         return 2;
     }
-    printf("%-26s %-9s %7s %9s %11s %9s %9s %9s %7s %8s\n", "scene", "simd", "clauses",
-           "point_ns", "interval_ns", "grad_ns", "ray_ns", "affine_ns", "iv/pt", "grad/iv");
+    printf("%-26s %-9s %7s %9s %11s %9s %10s %9s %9s %7s %8s\n", "scene", "simd", "clauses",
+           "point_ns", "interval_ns", "grad_ns", "ptgrad_ns", "ray_ns", "affine_ns", "iv/pt",
+           "grad/iv");
     char paths[128];
     snprintf(paths, sizeof paths, "%s", tape_simd_paths());
     bench_t *b = malloc(sizeof *b);
@@ -162,10 +172,11 @@ int main(int argc, char **argv)
             double pt = measure(b, run_point, seconds);
             double iv = measure(b, run_interval, seconds);
             double gr = measure(b, run_grad, seconds);
+            double pg = measure(b, run_point_grad, seconds);
             double ry = measure(b, run_ray, seconds);
             double af = measure(b, run_affine, seconds);
-            printf("%-26s %-9s %7u %9.3f %11.3f %9.3f %9.3f %9.3f %7.2f %8.2f\n", s.source.name,
-                   p, s.tape->n, pt, iv, gr, ry, af, iv / pt, gr / iv);
+            printf("%-26s %-9s %7u %9.3f %11.3f %9.3f %10.3f %9.3f %9.3f %7.2f %8.2f\n",
+                   s.source.name, p, s.tape->n, pt, iv, gr, pg, ry, af, iv / pt, gr / iv);
         }
         tape_simd_select(NULL, NULL);
         tape_ws_free(b->ws);

@@ -1,5 +1,5 @@
-/* ivoct — the evaluators over a tape: point, interval, interval + gradient
- * and along a ray, and the choice of SIMD path.
+/* ivoct — the evaluators over a tape: point, interval, interval + gradient,
+ * point + gradient and along a ray, and the choice of SIMD path.
  *
  * The point, interval and gradient evaluators run structure-of-arrays passes
  * (kernels.h, compiled per SIMD target): up to TAPE_BATCH boxes per pass over
@@ -195,6 +195,18 @@ static void load_boxes(tape_ws_t *ws, const iv_box_t *box, size_t m, size_t np)
     }
 }
 
+/* The input arrays of a pass over m points, np >= m lanes (x, y, z in the
+ * first three). */
+static void load_points(tape_ws_t *ws, const double *x, const double *y, const double *z,
+                        size_t m, size_t np)
+{
+    double *in = ws->in;
+    for (size_t k = 0; k < np; k++) {
+        size_t j = k < m ? k : 0;
+        in[k] = x[j], in[B + k] = y[j], in[2 * B + k] = z[j];
+    }
+}
+
 #define PASS_IN(ws)                                                                          \
     {                                                                                        \
         (ws)->in, (ws)->in + B, (ws)->in + 2 * B, (ws)->in + 3 * B, (ws)->in + 4 * B,        \
@@ -210,10 +222,7 @@ void tape_eval_point(const tape_t *t, tape_ws_t *ws, size_t n, const double *x,
     const double *in[6] = PASS_IN(ws);
     for (size_t base = 0; base < n; base += B) {
         size_t m = n - base < B ? n - base : B, np = padded_short(kern, m);
-        for (size_t k = 0; k < np; k++) {
-            size_t j = base + (k < m ? k : 0);
-            ws->in[k] = x[j], ws->in[B + k] = y[j], ws->in[2 * B + k] = z[j];
-        }
+        load_points(ws, x + base, y + base, z + base, m, np);
         kern->point(t, ws->point, np, in);
         memcpy(out + base, ws->point + (size_t)(t->n - 1) * B, m * sizeof *out);
     }
@@ -311,6 +320,25 @@ void tape_eval_grad(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *bo
                                         {r[G_XLO * B + k], r[G_XHI * B + k]},
                                         {r[G_YLO * B + k], r[G_YHI * B + k]},
                                         {r[G_ZLO * B + k], r[G_ZHI * B + k]}};
+    }
+}
+
+/* ---- point + gradient ----------------------------------------------------------------- */
+
+void tape_eval_point_grad(const tape_t *t, tape_ws_t *ws, size_t n, const double *x,
+                          const double *y, const double *z, tape_point_grad_t *out)
+{
+    const tape_kernels_t *kern = kernels();
+    const double *in[6] = PASS_IN(ws);
+    const double *r = ws->grad + (size_t)(t->n - 1) * P_ARRAYS * B;
+    tape_deps(t, ws->deps);
+    for (size_t base = 0; base < n; base += B) {
+        size_t m = n - base < B ? n - base : B, np = padded(m);
+        load_points(ws, x + base, y + base, z + base, m, np);
+        kern->point_grad(t, ws->deps, ws->grad, np, in);
+        for (size_t k = 0; k < m; k++)
+            out[base + k] = (tape_point_grad_t){r[P_V * B + k], r[P_X * B + k],
+                                                r[P_Y * B + k], r[P_Z * B + k]};
     }
 }
 

@@ -12,7 +12,8 @@
  * A slot of the structure-of-arrays passes is a set of arrays of
  * TAPE_BATCH doubles, one entry per lane: the point pass has one (the value),
  * the interval pass two (lo, hi), the gradient pass eight (lo, hi of the
- * value and of each partial).  Lane counts given to a kernel are multiples
+ * value and of each partial), the point + gradient pass four (the value and
+ * each partial).  Lane counts given to a kernel are multiples
  * of KERNEL_ALIGN (eval.c pads a batch with copies of its first lane), so the
  * lane loops have no scalar remainder, except for batches of fewer lanes,
  * which run as they are. */
@@ -31,6 +32,9 @@ enum { G_VLO, G_VHI, G_XLO, G_XHI, G_YLO, G_YHI, G_ZLO, G_ZHI, G_ARRAYS };
  * rounding magnitude (tape_eval_ray); fewer than G_ARRAYS, so the ray pass
  * uses the gradient pass's buffer. */
 enum { R_VLO, R_VHI, R_DLO, R_DHI, R_MAG, R_ARRAYS };
+/* The point + gradient pass's: the value and the three partials, doubles
+ * (tape_eval_point_grad); it also uses the gradient pass's buffer. */
+enum { P_V, P_X, P_Y, P_Z, P_ARRAYS };
 
 /* Inputs of a pass: for boxes x.lo, x.hi, y.lo, y.hi, z.lo, z.hi; for
  * points x, y, z in the first three. */
@@ -46,6 +50,11 @@ typedef struct tape_kernels {
      * G + (i * G_ARRAYS + c) * TAPE_BATCH); deps[i]: the variables clause i
      * depends on (bit 0 x, 1 y, 2 z), from tape_deps */
     void (*grad)(const tape_t *t, const uint8_t *deps, double *G, size_t nl, kernel_in_t in);
+    /* values and partials at points into P (array c of slot i at
+     * P + (i * P_ARRAYS + c) * TAPE_BATCH), deps as for grad; points as for
+     * point */
+    void (*point_grad)(const tape_t *t, const uint8_t *deps, double *P, size_t nl,
+                       kernel_in_t in);
     /* along rays: array c of slot i at R + (i * R_ARRAYS + c) * TAPE_BATCH;
      * lane k's box in in, its direction's components in dir_rho[0..2][k] and
      * its rounding radii rho in dir_rho[3..5][k] (see tape_eval_ray) */

@@ -490,6 +490,217 @@ static void K(grad)(const tape_t *t, const uint8_t *deps, double *G, size_t nl, 
     }
 }
 
+/* ---- point + gradient lanes --------------------------------------------------------
+ * Forward mode in plain doubles (tape_eval_point_grad): a slot's value and
+ * its three partials, P_ARRAYS arrays of lanes.  The value is computed by the
+ * point pass's very operations (so it is tape_eval_point's, bit for bit); the
+ * partials by the derivative rules of fm_unary and of the gradient pass.  A
+ * partial the clause cannot depend on (deps) is written as 0 and skipped in
+ * products, so no 0 * inf makes a NaN there. */
+#define PA(p, c) ((p) + (size_t)(c) * B)
+
+/* the partials of o = s * the partials of a (the chain rule) */
+static void p_lanes_scale(double *o, const double *s, const double *a, size_t nl, unsigned ma)
+{
+    for (int c = 1; c < 4; c++) {
+        double *restrict od = PA(o, c);
+        const double *ad = PA(a, c);
+        if (!HAS(ma, c)) {
+            memset(od, 0, nl * sizeof *od);
+            continue;
+        }
+        for (size_t k = 0; k < nl; k++) od[k] = s[k] * ad[k];
+    }
+}
+
+/* o = a + b or a - b (sign -1), the value and each partial */
+static void p_lanes_add(double *o, const double *a, const double *b, size_t nl, int sign,
+                        unsigned ma, unsigned mb)
+{
+    for (int c = 0; c < 4; c++) {
+        double *restrict od = PA(o, c);
+        const double *ad = PA(a, c), *bd = PA(b, c);
+        int has_a = c == 0 || HAS(ma, c), has_b = c == 0 || HAS(mb, c);
+        if (has_a && has_b) {
+            if (sign > 0)
+                for (size_t k = 0; k < nl; k++) od[k] = ad[k] + bd[k];
+            else
+                for (size_t k = 0; k < nl; k++) od[k] = ad[k] - bd[k];
+        } else if (has_a) {
+            memcpy(od, ad, nl * sizeof *od);
+        } else if (has_b) {
+            if (sign > 0)
+                memcpy(od, bd, nl * sizeof *od);
+            else
+                for (size_t k = 0; k < nl; k++) od[k] = -bd[k];
+        } else {
+            memset(od, 0, nl * sizeof *od);
+        }
+    }
+}
+
+/* o = a b: the product rule, a partial of one operand alone a single product */
+static void p_lanes_mul(double *o, const double *a, const double *b, size_t nl, unsigned ma,
+                        unsigned mb)
+{
+    const double *av = PA(a, 0), *bv = PA(b, 0);
+    for (int c = 1; c < 4; c++) {
+        double *restrict od = PA(o, c);
+        const double *ad = PA(a, c), *bd = PA(b, c);
+        if (HAS(ma, c) && HAS(mb, c))
+            for (size_t k = 0; k < nl; k++) od[k] = ad[k] * bv[k] + av[k] * bd[k];
+        else if (HAS(ma, c))
+            for (size_t k = 0; k < nl; k++) od[k] = ad[k] * bv[k];
+        else if (HAS(mb, c))
+            for (size_t k = 0; k < nl; k++) od[k] = av[k] * bd[k];
+        else
+            memset(od, 0, nl * sizeof *od);
+    }
+    double *restrict ov = PA(o, 0);
+    for (size_t k = 0; k < nl; k++) ov[k] = av[k] * bv[k];
+}
+
+/* o = a / b: (a/b)' = (a' - (a/b) b') / b */
+static void p_lanes_div(double *o, const double *a, const double *b, size_t nl, unsigned ma,
+                        unsigned mb)
+{
+    const double *av = PA(a, 0), *bv = PA(b, 0);
+    double *restrict ov = PA(o, 0);
+    for (size_t k = 0; k < nl; k++) ov[k] = av[k] / bv[k];
+    for (int c = 1; c < 4; c++) {
+        double *restrict od = PA(o, c);
+        const double *ad = PA(a, c), *bd = PA(b, c);
+        if (HAS(ma, c) && HAS(mb, c))
+            for (size_t k = 0; k < nl; k++) od[k] = (ad[k] - ov[k] * bd[k]) / bv[k];
+        else if (HAS(ma, c))
+            for (size_t k = 0; k < nl; k++) od[k] = ad[k] / bv[k];
+        else if (HAS(mb, c))
+            for (size_t k = 0; k < nl; k++) od[k] = -(ov[k] * bd[k]) / bv[k];
+        else
+            memset(od, 0, nl * sizeof *od);
+    }
+}
+
+/* min, max: the point pass's value (NaN propagates); the partials of the
+ * operand it takes, their mean where the operands tie (the midpoint of the
+ * one-sided derivatives the gradient pass hulls there) */
+static void p_lanes_minmax(double *o, const double *a, const double *b, size_t nl, int is_min)
+{
+    const double *av = PA(a, 0), *bv = PA(b, 0);
+    double *restrict ov = PA(o, 0);
+    signed char pick[B]; /* -1: a, 1: b, 0: tie */
+    for (size_t k = 0; k < nl; k++) {
+        int a_first = is_min ? av[k] < bv[k] : av[k] > bv[k];
+        ov[k] = av[k] != av[k] ? av[k] : a_first ? av[k] : bv[k];
+        pick[k] = (signed char)(av[k] != av[k] || a_first ? -1 : av[k] == bv[k] ? 0 : 1);
+    }
+    for (int c = 1; c < 4; c++) {
+        double *restrict od = PA(o, c);
+        const double *ad = PA(a, c), *bd = PA(b, c);
+        for (size_t k = 0; k < nl; k++)
+            od[k] = pick[k] < 0 ? ad[k] : pick[k] > 0 ? bd[k] : 0.5 * (ad[k] + bd[k]);
+    }
+}
+
+static void K(point_grad)(const tape_t *t, const uint8_t *deps, double *P, size_t nl,
+                          kernel_in_t in)
+{
+    for (uint32_t i = 0; i < t->n; i++) {
+        const tape_clause_t *c = &t->clauses[i];
+        double *o = P + (size_t)i * P_ARRAYS * B;
+        const double *a = P + (size_t)c->a * P_ARRAYS * B, *b = P + (size_t)c->b * P_ARRAYS * B;
+        tape_op_t op = (tape_op_t)c->op;
+        unsigned ma = deps[c->a], mb = tape_op_arity(op) == 2 ? deps[c->b] : 0;
+        double *restrict ov = PA(o, P_V);
+        const double *av = PA(a, P_V);
+        double s[B]; /* a unary op's derivative, for the chain rule */
+        switch (op) {
+        case TAPE_CONST: {
+            double v = iv_mid(c->c);
+            for (size_t k = 0; k < nl; k++) ov[k] = v;
+            memset(PA(o, P_X), 0, 3 * B * sizeof *o);
+            continue;
+        }
+        case TAPE_X:
+        case TAPE_Y:
+        case TAPE_Z: {
+            int axis = op - TAPE_X;
+            memcpy(ov, in[axis], nl * sizeof *ov);
+            for (int j = 0; j < 3; j++) {
+                double v = j == axis ? 1.0 : 0.0;
+                double *restrict od = PA(o, P_X + j);
+                for (size_t k = 0; k < nl; k++) od[k] = v;
+            }
+            continue;
+        }
+        case TAPE_NEG:
+            for (int j = 0; j < 4; j++) {
+                double *restrict od = PA(o, j);
+                const double *ad = PA(a, j);
+                if (j > 0 && !HAS(ma, j))
+                    memset(od, 0, nl * sizeof *od);
+                else
+                    for (size_t k = 0; k < nl; k++) od[k] = -ad[k];
+            }
+            continue;
+        case TAPE_ADD: p_lanes_add(o, a, b, nl, 1, ma, mb); continue;
+        case TAPE_SUB: p_lanes_add(o, a, b, nl, -1, ma, mb); continue;
+        case TAPE_MUL: p_lanes_mul(o, a, b, nl, ma, mb); continue;
+        case TAPE_DIV: p_lanes_div(o, a, b, nl, ma, mb); continue;
+        case TAPE_MIN: p_lanes_minmax(o, a, b, nl, 1); continue;
+        case TAPE_MAX: p_lanes_minmax(o, a, b, nl, 0); continue;
+        case TAPE_SQR:
+            for (size_t k = 0; k < nl; k++) ov[k] = av[k] * av[k], s[k] = av[k] + av[k];
+            break;
+        case TAPE_POWI: {
+            int n = (int)c->c.lo;
+            k_point_powi(ov, av, nl, n);
+            if (n == 0) {
+                memset(s, 0, nl * sizeof *s);
+            } else {
+                k_point_powi(s, av, nl, n - 1);
+                for (size_t k = 0; k < nl; k++) s[k] *= (double)n;
+            }
+            break;
+        }
+        case TAPE_POWR:
+            for (size_t k = 0; k < nl; k++) ov[k] = pow(av[k], c->c.lo);
+            for (size_t k = 0; k < nl; k++) s[k] = c->c.lo * (ov[k] / av[k]);
+            break;
+        case TAPE_SQRT:
+            for (size_t k = 0; k < nl; k++) ov[k] = sqrt(av[k]);
+            for (size_t k = 0; k < nl; k++) s[k] = 0.5 / ov[k];
+            break;
+        case TAPE_EXP:
+            for (size_t k = 0; k < nl; k++) ov[k] = s[k] = exp(av[k]);
+            break;
+        case TAPE_LOG:
+            for (size_t k = 0; k < nl; k++) ov[k] = log(av[k]), s[k] = 1.0 / av[k];
+            break;
+        case TAPE_SIN:
+            for (size_t k = 0; k < nl; k++) ov[k] = sin(av[k]), s[k] = cos(av[k]);
+            break;
+        case TAPE_COS:
+            for (size_t k = 0; k < nl; k++) ov[k] = cos(av[k]), s[k] = -sin(av[k]);
+            break;
+        case TAPE_TAN:
+            for (size_t k = 0; k < nl; k++) ov[k] = tan(av[k]), s[k] = 1.0 + ov[k] * ov[k];
+            break;
+        case TAPE_ATAN:
+            for (size_t k = 0; k < nl; k++)
+                ov[k] = atan(av[k]), s[k] = 1.0 / (1.0 + av[k] * av[k]);
+            break;
+        case TAPE_ABS:
+            /* at 0 the mean of the one-sided derivatives -1 and 1 */
+            for (size_t k = 0; k < nl; k++)
+                ov[k] = fabs(av[k]), s[k] = av[k] > 0 ? 1.0 : av[k] < 0 ? -1.0 : 0.0;
+            break;
+        case TAPE_OP_COUNT: continue;
+        }
+        p_lanes_scale(o, s, a, nl, ma);
+    }
+}
+
 /* ---- along rays: value, derivative along the direction, rounding magnitude ------
  * The rules of tape_eval_ray (eval.c, tape.h) lane by lane, each clause one
  * set of lane loops; the cheap operations split into loops that vectorise. */
@@ -795,5 +1006,5 @@ static void K(ray_inputs)(size_t nl, const double o[3], const double d[3], const
 }
 
 const tape_kernels_t K(tape_kernels) = {KSTR(KERNEL_TARGET), K(point),      K(interval),
-                                        K(grad),             K(ray),        K(ray_inputs),
-                                        KERNEL_SHORT_LANES};
+                                        K(grad),             K(point_grad), K(ray),
+                                        K(ray_inputs),       KERNEL_SHORT_LANES};

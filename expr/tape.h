@@ -163,6 +163,22 @@ void tape_eval_interval_choices(const tape_t *t, tape_ws_t *ws, size_t n, const 
 void tape_eval_grad(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *box,
                     iv_grad_t *out);
 
+/* Plain double evaluation of f and of its gradient at points (forward mode;
+ * not rigorous: for distance estimates and normals, where the cost of
+ * tape_eval_grad buys nothing).  out[k].v is tape_eval_point's value, bit
+ * for bit.  The partials are those of the same rules as tape_eval_grad's,
+ * rounded to nearest, so they lie close to the midpoints of tape_eval_grad's
+ * enclosures at the point box (tests/test_eval_mpfi.c checks them against
+ * MPFI within the width of those enclosures).  Where abs, min or max is at its
+ * kink (abs at 0, min/max at a tie) the partials are the mean of the two
+ * one-sided ones; NaN where f or a partial is undefined. */
+typedef struct tape_point_grad {
+    double v, dx, dy, dz;
+} tape_point_grad_t;
+
+void tape_eval_point_grad(const tape_t *t, tape_ws_t *ws, size_t n, const double *x,
+                          const double *y, const double *z, tape_point_grad_t *out);
+
 /* ---- along a ray ----------------------------------------------------------------
  * g(t) = f(o + t·d) on a ray with finite o and d.  The rounded point of
  * parameter t is p~(t) = fl(o + fl(t·d)) per axis (two roundings; the build

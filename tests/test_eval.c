@@ -1,5 +1,7 @@
 /* The tape evaluators, operation by operation, against the MPFI oracle; and the
- * properties of batching (a box's result does not depend on its batch). */
+ * properties of batching (a box's result does not depend on its batch); and
+ * the conventions of the point + gradient evaluator. */
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -64,6 +66,9 @@ static void test_each_operation(void **state)
                 fail_msg("%s on box %zu: %s", EXPRS[e].text, b, st.failure);
             checked += st.checked;
             total += st.checked + st.skipped;
+            /* the plain double point + gradient evaluator, near the oracle */
+            if (oracle_check_point_grad(t, boxes[b], nbox, &rng, &st) != 0)
+                fail_msg("%s on box %zu, point gradient: %s", EXPRS[e].text, b, st.failure);
         }
         printf("%-36s %7ld of %7ld points defined and enclosed\n", EXPRS[e].text, checked,
                total);
@@ -159,6 +164,44 @@ static void test_set_based_domains(void **state)
     tape_free(t);
 }
 
+/* tape_eval_point_grad where the rules choose: abs at 0 and min/max at a tie
+ * give the mean of the one-sided partials; a partial f does not depend on is
+ * exactly 0 even where the value is infinite; undefined is NaN. */
+static void test_point_grad_conventions(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *text;
+        double x, y, z, v, dx, dy, dz;
+    } C[] = {
+        {"abs(x) + y", 0, 2, 0, 2, 0, 1, 0},
+        {"abs(x - y)", 3, 1, 0, 2, 1, -1, 0},
+        {"min(x, y)", 1, 1, 5, 1, 0.5, 0.5, 0},
+        {"max(2*x, y)", 1, 2, 0, 2, 1, 0.5, 0},
+        {"min(x, y)", 1, 2, 0, 1, 1, 0, 0},
+        {"max(x, y*z)", 1, 2, 3, 6, 0, 3, 2},
+        {"x*y^2 + z/y", 2, 1, 3, 5, 1, 1, 1},
+        {"exp(x)*sin(y)", 0, 0, 0, 0, 0, 1, 0},
+        {"y/x + z", 0, 0, 1, NAN, NAN, INFINITY, 1},
+        {"z^3 + 1/x", 0, 0, 2, INFINITY, -INFINITY, 0, 12},
+        {"sqrt(x) + y", -1, 1, 0, NAN, NAN, 1, 0},
+    };
+    for (size_t i = 0; i < sizeof C / sizeof C[0]; i++) {
+        tape_t *t = compile(C[i].text);
+        tape_ws_t *ws = tape_ws_new(t->n);
+        assert_non_null(ws);
+        tape_point_grad_t q;
+        tape_eval_point_grad(t, ws, 1, &C[i].x, &C[i].y, &C[i].z, &q);
+        double got[4] = {q.v, q.dx, q.dy, q.dz}, want[4] = {C[i].v, C[i].dx, C[i].dy, C[i].dz};
+        for (int k = 0; k < 4; k++)
+            if (!(got[k] == want[k] || (isnan(got[k]) && isnan(want[k]))))
+                fail_msg("%s at (%g, %g, %g): component %d is %.17g, expected %.17g",
+                         C[i].text, C[i].x, C[i].y, C[i].z, k, got[k], want[k]);
+        tape_ws_free(ws);
+        tape_free(t);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -166,6 +209,7 @@ int main(void)
         cmocka_unit_test(test_batches_are_independent),
         cmocka_unit_test(test_point_box_is_tight),
         cmocka_unit_test(test_set_based_domains),
+        cmocka_unit_test(test_point_grad_conventions),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

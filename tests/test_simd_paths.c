@@ -2,11 +2,12 @@
  * paths"), so the same octree.
  *
  * For each path this machine runs (tape_simd_paths, tape_simd_available):
- *   - the point, interval (with its choices), gradient and ray evaluators over
- *     random boxes of every scene and of the expressions that exercise every
- *     op (tests/support: tu_op_exprs), in batches of TAPE_BATCH + 37 (a full
- *     pass, then a short padded one), must equal the portable path's results
- *     byte for byte (NaN payloads included: the evaluators make the same NaN),
+ *   - the point, interval (with its choices), gradient, point + gradient and
+ *     ray evaluators over random boxes of every scene and of the expressions
+ *     that exercise every op (tests/support: tu_op_exprs), in batches of
+ *     TAPE_BATCH + 37 (a full pass, then a short padded one), must equal the
+ *     portable path's results byte for byte (NaN payloads included: the
+ *     evaluators make the same NaN),
  *     and 1 to 8 points evaluated alone the same points in the full batch;
  *   - the octree of every scene, with the scene's tests and with the whole
  *     chain, built with 1 and 2 threads, must save to the same .ivo bytes;
@@ -65,6 +66,7 @@ typedef struct results {
     uint8_t *choices;
     iv_grad_t G[NBOX];
     double P[NBOX];
+    tape_point_grad_t Q[NBOX];
     iv_t g[NBOX], dg[NBOX], g_only[NBOX];
     double rnd[NBOX];
 } results_t;
@@ -80,6 +82,7 @@ static void evaluate(const tape_t *t, const iv_box_t *boxes, const double (*pt)[
     tape_eval_interval_choices(t, ws, NBOX, boxes, r->F, r->choices);
     tape_eval_grad(t, ws, NBOX, boxes, r->G);
     tape_eval_point(t, ws, NBOX, x, y, z, r->P);
+    tape_eval_point_grad(t, ws, NBOX, x, y, z, r->Q);
     /* 1 to 8 of the points again, as a short batch (padded and run by a pass
      * of its own on some paths): the same bits */
     for (int k = 1; k <= 8; k++) {
@@ -105,6 +108,7 @@ static void same_results(const char *what, const char *path, const tape_t *t,
     SAME(choices, (size_t)NBOX * t->n);
     SAME(G, sizeof a->G);
     SAME(P, sizeof a->P);
+    SAME(Q, sizeof a->Q);
     SAME(g, sizeof a->g);
     SAME(dg, sizeof a->dg);
     SAME(g_only, sizeof a->g_only);

@@ -384,3 +384,94 @@ int oracle_check_tape(const tape_t *t, const double box[6], long nbox, int point
     tape_ws_free(ws);
     return fail;
 }
+
+/* Is |p - x| <= 2 (e.hi - e.lo) + 2^-50 max(|e.lo|, |e.hi|), x the oracle's
+ * value (a 256-bit interval: its left end) and e the rigorous enclosure at the
+ * point?  An e that is not finite bounds nothing: true. */
+static int near_enclosed(mpfi_t x, double p, iv_t e)
+{
+    if (!isfinite(e.lo) || !isfinite(e.hi))
+        return 1;
+    if (!isfinite(p))
+        return 0;
+    mpfr_t err, tol, t;
+    mpfr_inits2(ORACLE_PREC, err, tol, t, (mpfr_ptr)0);
+    mpfi_get_left(err, x);
+    mpfr_sub_d(err, err, p, MPFR_RNDN);
+    mpfr_abs(err, err, MPFR_RNDN);
+    mpfr_set_d(tol, e.hi, MPFR_RNDN);
+    mpfr_sub_d(tol, tol, e.lo, MPFR_RNDN);
+    mpfr_mul_2ui(tol, tol, 1, MPFR_RNDN);
+    double big = fabs(e.lo) > fabs(e.hi) ? fabs(e.lo) : fabs(e.hi);
+    mpfr_set_d(t, big, MPFR_RNDN);
+    mpfr_mul_2si(t, t, -50, MPFR_RNDN);
+    mpfr_add(tol, tol, t, MPFR_RNDN);
+    int ok = mpfr_cmp(err, tol) <= 0;
+    mpfr_clears(err, tol, t, (mpfr_ptr)0);
+    return ok;
+}
+
+int oracle_check_point_grad(const tape_t *t, const double box[6], long npoints, uint64_t *rng,
+                            oracle_stats_t *st)
+{
+    memset(st, 0, sizeof *st);
+    tape_ws_t *ws = tape_ws_new(t->n);
+    mpfi_t v, g[3];
+    mpfi_init2(v, ORACLE_PREC);
+    for (int k = 0; k < 3; k++)
+        mpfi_init2(g[k], ORACLE_PREC);
+    enum { BATCH = TAPE_BATCH + 13 }; /* two passes, the second short */
+    int fail = ws == NULL;
+    for (long done = 0; done < npoints && !fail; done += BATCH) {
+        double x[BATCH], y[BATCH], z[BATCH], P[BATCH];
+        iv_box_t pts[BATCH];
+        tape_point_grad_t Q[BATCH];
+        iv_grad_t G[BATCH];
+        for (int i = 0; i < BATCH; i++) {
+            x[i] = tu_pick(iv_make(box[0], box[1]), rng);
+            y[i] = tu_pick(iv_make(box[2], box[3]), rng);
+            z[i] = tu_pick(iv_make(box[4], box[5]), rng);
+            pts[i] = (iv_box_t){iv_point(x[i]), iv_point(y[i]), iv_point(z[i])};
+        }
+        tape_eval_point_grad(t, ws, BATCH, x, y, z, Q);
+        tape_eval_point(t, ws, BATCH, x, y, z, P);
+        tape_eval_grad(t, ws, BATCH, pts, G);
+        for (int i = 0; i < BATCH && !fail; i++) {
+            double p[3] = {x[i], y[i], z[i]};
+            if (memcmp(&P[i], &Q[i].v, sizeof P[i]) != 0) {
+                snprintf(st->failure, sizeof st->failure,
+                         "f(%.17g, %.17g, %.17g): tape_eval_point_grad %.17g, tape_eval_point "
+                         "%.17g",
+                         p[0], p[1], p[2], Q[i].v, P[i]);
+                fail = 1;
+                break;
+            }
+            oracle_const_t which = (i & 1) ? ORACLE_CONST_HI : ORACLE_CONST_LO;
+            if (oracle_eval(t, p, which, v, g) != 0) {
+                st->skipped++;
+                continue;
+            }
+            st->checked++;
+            double q[4] = {Q[i].v, Q[i].dx, Q[i].dy, Q[i].dz};
+            iv_t e[4] = {G[i].v, G[i].dx, G[i].dy, G[i].dz};
+            for (int k = 0; k < 4 && !fail; k++) {
+                if (!near_enclosed(k ? g[k - 1] : v, q[k], e[k])) {
+                    mpfr_snprintf(st->failure, sizeof st->failure,
+                                  "%s(%.17g, %.17g, %.17g) = %.20RNg: tape_eval_point_grad "
+                                  "%.17g, enclosure [%.17g, %.17g]",
+                                  (const char *[]){"f", "df/dx", "df/dy", "df/dz"}[k], p[0],
+                                  p[1], p[2], k ? &g[k - 1]->left : &v->left, q[k], e[k].lo,
+                                  e[k].hi);
+                    fail = 1;
+                }
+                if (k > 0 && isfinite(e[k].lo) && isfinite(e[k].hi))
+                    st->checked_grad++;
+            }
+        }
+    }
+    mpfi_clear(v);
+    for (int k = 0; k < 3; k++)
+        mpfi_clear(g[k]);
+    tape_ws_free(ws);
+    return fail;
+}

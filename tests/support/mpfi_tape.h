@@ -49,4 +49,16 @@ typedef struct {
 int oracle_check_tape(const tape_t *t, const double box[6], long nbox, int points_per_box,
                       uint64_t *rng, oracle_stats_t *stats);
 
+/* The non-rigorous point + gradient evaluator against the oracle: npoints
+ * random points of box in batches of TAPE_BATCH + 13, evaluated with
+ * tape_eval_point_grad.  Its value must be tape_eval_point's bit for bit,
+ * and its value and partials within 2w + 2^-50 |e| of the oracle's, where
+ * [e.lo, e.hi] is tape_eval_grad's rigorous enclosure at the point box and
+ * w its width (the rounding error of the same rules in doubles is of that
+ * order; an enclosure that is not finite bounds nothing).  Points where the
+ * oracle finds f undefined or not differentiable are skipped; checked counts
+ * points, checked_grad partials with a finite enclosure. */
+int oracle_check_point_grad(const tape_t *t, const double box[6], long npoints, uint64_t *rng,
+                            oracle_stats_t *stats);
+
 #endif

@@ -130,8 +130,8 @@ extern "C" int vdb_rc_build(const tape_t *tape, const oct_tree_t *tree, const vd
 #pragma omp parallel num_threads(threads)
         {
             tape_ws_t *ws = tape_ws_new(tape->n);
-            std::vector<iv_box_t> boxes(chunk);
-            std::vector<iv_grad_t> gr(chunk);
+            std::vector<double> px(chunk), py(chunk), pz(chunk);
+            std::vector<tape_point_grad_t> gr(chunk);
             if (!ws) {
 #pragma omp atomic write
                 failed = 1;
@@ -143,16 +143,14 @@ extern "C" int vdb_rc_build(const tape_t *tape, const oct_tree_t *tree, const vd
                 size_t s = (size_t)c * chunk, m = std::min(chunk, nv - s);
                 for (size_t k = 0; k < m; k++) {
                     const Coord &q = coords[s + k];
-                    double p[3];
-                    for (int a = 0; a < 3; a++)
-                        p[a] = lo[a] + ((double)q[a] + 0.5) * h;
-                    boxes[k] = iv_box_t{iv_point(p[0]), iv_point(p[1]), iv_point(p[2])};
+                    px[k] = lo[0] + ((double)q[0] + 0.5) * h;
+                    py[k] = lo[1] + ((double)q[1] + 0.5) * h;
+                    pz[k] = lo[2] + ((double)q[2] + 0.5) * h;
                 }
-                tape_eval_grad(tape, ws, m, boxes.data(), gr.data());
+                tape_eval_point_grad(tape, ws, m, px.data(), py.data(), pz.data(), gr.data());
                 for (size_t k = 0; k < m; k++) {
-                    const iv_grad_t &q = gr[k];
-                    double f = iv_mid(q.v);
-                    double gx = iv_mid(q.dx), gy = iv_mid(q.dy), gz = iv_mid(q.dz);
+                    const tape_point_grad_t &q = gr[k];
+                    double f = q.v, gx = q.dx, gy = q.dy, gz = q.dz;
                     double gn = std::sqrt(gx * gx + gy * gy + gz * gz);
                     double d = gn > 0 && std::isfinite(gn) ? f / gn
                                : f > 0                      ? (double)bg

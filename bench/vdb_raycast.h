@@ -7,9 +7,9 @@
  * The band: the voxels that meet a surface leaf of ivoct's octree (so the
  * dense grid is never sampled), dilated by half_width voxels (26-neighbour
  * steps, i.e. a Chebyshev distance), clipped to the box.  Each band voxel gets
- * f/|∇f| at its centre (value and gradient from tape_eval_grad on the point,
- * midpoints taken), clamped to ±background; background = half_width·h; the
- * inside is then flood-filled with -background (tools::signedFloodFill).
+ * f/|∇f| at its centre (value and gradient in doubles from
+ * tape_eval_point_grad, as ivoct's .vdb writer), clamped to ±background;
+ * background = half_width·h; the inside is then flood-filled with -background (tools::signedFloodFill).
  * Grid class GRID_LEVEL_SET, a linear transform with uniform scale.
  *
  * The cast: one ray per pixel, from cam->eye along ray_camera_dir (the rays of

@@ -152,7 +152,8 @@ int exp_phtg_index(const char *path, const char *piece, const char *const *sourc
  *            EXP_SDF_HALF_WIDTH voxels): active voxels are the surface leaves
  *            dilated by EXP_SDF_HALF_WIDTH voxels (within the box), valued with
  *            the first-order distance estimate f / |grad f| at the voxel
- *            centre, clamped to the background; the sign of every voxel
+ *            centre (f and its gradient in doubles, tape_eval_point_grad),
+ *            clamped to the background; the sign of every voxel
  *            outside the surface leaves, active or not, is the octree's
  *            certified class (inside negative; outside, undefined and beyond
  *            the box positive).

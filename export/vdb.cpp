@@ -156,22 +156,73 @@ CoordBBox cell_voxels(int D, int d, uint32_t ix, uint32_t iy, uint32_t iz)
     return CoordBBox(a, a.offsetBy(s - 1));
 }
 
+// The surface grid.  A leaf deeper than a grid leaf node (8^3 voxels, a cell
+// of depth D - 3) is a block of voxels of one node; the surface leaves are in
+// Morton order, so those of one node are contiguous: the nodes are made over
+// threads (their memory is most of this grid's time), each by the thread
+// whose chunk holds the node's first leaf, and added to the tree in order.
+// The shallower leaves are tiles (or tile-aligned fills), few, added after.
 FloatGrid::Ptr surface_grid(const oct_tree_t *t, const Frame &fr)
 {
+    using Leaf = openvdb::FloatTree::LeafNodeType;
     FloatGrid::Ptr g = FloatGrid::create(0.0f);
     g->setName("surface");
     g->setTransform(fr.xf->copy());
     auto &tree = g->tree();
-    auto acc = g->getAccessor();
-    for (uint32_t i = 0; i < t->n_leaves; i++) {
+    const int node_depth = fr.D - (int)Leaf::LOG2DIM;
+    // the Morton code of a leaf's grid leaf node; a tile's: none
+    constexpr uint64_t TILE = UINT64_MAX;
+    auto node_of = [&](uint32_t i) {
+        const oct_leaf_t &l = t->leaves[i];
+        int d = oct_leaf_depth(&l);
+        if (d <= node_depth)
+            return TILE;
+        return node_depth < 0 ? 0 : oct_leaf_code(&l) >> 3 * (d - node_depth);
+    };
+    const size_t n = t->n_leaves, chunk = 16384;
+    std::vector<std::vector<std::unique_ptr<Leaf>>> made((n + chunk - 1) / chunk);
+    parallel_chunks(n, chunk, writer_threads(t, made.size()), [&](size_t s, size_t e, int) {
+        std::vector<std::unique_ptr<Leaf>> &out = made[s / chunk];
+        size_t i = s;
+        // a node begun in the chunk before is that chunk's
+        const uint64_t before = s > 0 ? node_of((uint32_t)(s - 1)) : TILE;
+        while (before != TILE && i < e && node_of((uint32_t)i) == before)
+            i++;
+        while (i < e) {
+            const uint64_t key = node_of((uint32_t)i);
+            if (key == TILE) {
+                i++;
+                continue;
+            }
+            Leaf *leaf = nullptr;
+            for (; i < n && node_of((uint32_t)i) == key; i++) {
+                const oct_leaf_t &l = t->leaves[i];
+                uint32_t ix, iy, iz;
+                int depth = oct_leaf_depth(&l);
+                oct_unmorton(oct_leaf_code(&l), depth, &ix, &iy, &iz);
+                CoordBBox b = cell_voxels(fr.D, depth, ix, iy, iz);
+                if (!leaf) {
+                    out.push_back(std::make_unique<Leaf>(b.min() & ~(Leaf::DIM - 1), 0.0f, false));
+                    leaf = out.back().get();
+                }
+                for (int32_t x = b.min()[0]; x <= b.max()[0]; x++)
+                    for (int32_t y = b.min()[1]; y <= b.max()[1]; y++)
+                        for (int32_t z = b.min()[2]; z <= b.max()[2]; z++)
+                            leaf->setValueOn(Leaf::coordToOffset(Coord(x, y, z)), (float)depth);
+            }
+        }
+    });
+    for (auto &v : made)
+        for (auto &leaf : v)
+            tree.addLeaf(leaf.release());
+    for (uint32_t i = 0; i < n; i++) {
+        if (node_of(i) != TILE)
+            continue;
         const oct_leaf_t &l = t->leaves[i];
         uint32_t ix, iy, iz;
         int depth = oct_leaf_depth(&l);
         oct_unmorton(oct_leaf_code(&l), depth, &ix, &iy, &iz);
-        if (depth == fr.D)
-            acc.setValueOn(Coord((int32_t)ix, (int32_t)iy, (int32_t)iz), (float)depth);
-        else  // a tile where aligned to a node, voxels elsewhere
-            tree.fill(cell_voxels(fr.D, depth, ix, iy, iz), (float)depth, true);
+        tree.fill(cell_voxels(fr.D, depth, ix, iy, iz), (float)depth, true);
     }
     return g;
 }
@@ -254,7 +305,9 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
     // leaves the sign is the octree's class (the value the voxel had: -bg or bg).
     // f and its gradient at every band voxel are the one evaluation the build
     // has not made (it knows f over cells, not at voxel centres): leaf node by
-    // leaf node of the grid (up to 512 voxels, one evaluator pass), over threads.
+    // leaf node of the grid (up to 512 voxels, one evaluator pass), over
+    // threads.  A distance estimate needs no enclosure: plain doubles
+    // (tape_eval_point_grad), a quarter of the interval gradient's cost.
     openvdb::tree::LeafManager<openvdb::FloatTree> nodes(g->tree());
     const size_t n_nodes = nodes.leafCount(), chunk = 16;
     const int threads = writer_threads(t, (n_nodes + chunk - 1) / chunk);
@@ -265,8 +318,8 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
     parallel_chunks(n_nodes, chunk, threads, [&](size_t s, size_t e, int w) {
         using Leaf = openvdb::FloatTree::LeafNodeType;
         constexpr size_t N = Leaf::SIZE;
-        std::vector<iv_box_t> boxes(N);
-        std::vector<iv_grad_t> out(N);
+        std::vector<double> x(N), y(N), z(N);
+        std::vector<tape_point_grad_t> out(N);
         std::vector<openvdb::Index> offset(N);
         std::vector<signed char> sign(N);  // 0: in a surface leaf
         double p[3][Leaf::DIM];            // voxel centres along each axis
@@ -280,23 +333,23 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
             for (int a = 0; a < 3; a++)
                 for (openvdb::Index k = 0; k < Leaf::DIM; k++)
                     p[a][k] = fr.lo[a] + ((double)(o[a] + (int32_t)k) + 0.5) * fr.h[a];
-            const float *v = node.buffer().data();
+            float *v = node.buffer().data();  // the node's values, written in place
             size_t m = 0;
             for (auto it = node.getValueMask().beginOn(); it; ++it, m++) {
                 const openvdb::Index n = it.pos();  // (x << 6) | (y << 3) | z
                 offset[m] = n;
                 const bool in_surface = sl ? sl->isValueOn(n) : s_tile_on;
                 sign[m] = in_surface ? 0 : v[n] < 0 ? -1 : 1;
-                boxes[m] = iv_box_t{iv_point(p[0][n >> 2 * Leaf::LOG2DIM]),
-                                    iv_point(p[1][(n >> Leaf::LOG2DIM) & (Leaf::DIM - 1)]),
-                                    iv_point(p[2][n & (Leaf::DIM - 1)])};
+                x[m] = p[0][n >> 2 * Leaf::LOG2DIM];
+                y[m] = p[1][(n >> Leaf::LOG2DIM) & (Leaf::DIM - 1)];
+                z[m] = p[2][n & (Leaf::DIM - 1)];
             }
-            tape_eval_grad(tape, ws[(size_t)w]->ws, m, boxes.data(), out.data());
+            tape_eval_point_grad(tape, ws[(size_t)w]->ws, m, x.data(), y.data(), z.data(),
+                                 out.data());
             for (size_t k = 0; k < m; k++) {
-                const iv_grad_t &q = out[k];
-                double f = iv_mid(q.v);
-                double gx = iv_mid(q.dx), gy = iv_mid(q.dy), gz = iv_mid(q.dz);
-                double gn = std::sqrt(gx * gx + gy * gy + gz * gz);
+                const tape_point_grad_t &q = out[k];
+                double f = q.v;
+                double gn = std::sqrt(q.dx * q.dx + q.dy * q.dy + q.dz * q.dz);
                 double d = gn > 0 && std::isfinite(gn) ? f / gn : f > 0 ? bg : f < 0 ? -bg : 0;
                 if (std::isnan(d))  // f undefined here: outside
                     d = bg;
@@ -304,7 +357,7 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
                 int cls = sign[k];
                 if (cls != 0 && !(d * cls > 0))  // the certified class wins; keep |d| if any
                     d = cls * std::max(std::fabs(d), 1e-3 * fr.max_h());
-                node.setValueOnly(offset[k], (float)d);
+                v[offset[k]] = (float)d;
             }
         }
     });

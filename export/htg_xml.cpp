@@ -36,10 +36,6 @@
 
 #include "internal.hpp"
 
-#if !defined(__BYTE_ORDER__) || __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
-#error "the .htg writer writes the host's bytes as LittleEndian"
-#endif
-
 namespace ivexp {
 namespace {
 
@@ -469,8 +465,9 @@ void write_htg_trees(const oct_tree_t *tree, const tape_t *tape, const oct_sourc
     std::string &t = w.text();
     t += "<?xml version=\"1.0\"?>\n<VTKFile type=\"HyperTreeGrid\" version=\"";
     t += piece ? "0.0" : "2.0";
-    t += "\" byte_order=\"LittleEndian\" header_type=\"UInt64\" "
-         "compressor=\"vtkLZ4DataCompressor\">\n  <HyperTreeGrid";
+    t += "\" byte_order=\"";
+    t += VTK_BYTE_ORDER;
+    t += "\" header_type=\"UInt64\" compressor=\"vtkLZ4DataCompressor\">\n  <HyperTreeGrid";
     if (piece)
         t += " Dimension=\"3\" Orientation=\"-1\"";
     const std::string dim = std::to_string(cells + 1);

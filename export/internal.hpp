@@ -222,8 +222,18 @@ template <class F> void parallel_chunks(size_t n, size_t chunk, int threads, F &
 // bytes do not depend on the others', so the data are the same for any count.
 constexpr size_t LZ4_BLOCK = 32768;  // vtkXMLWriter's default BlockSize
 
+// The byte order of the numbers in the VTK XML files written here: the host's,
+// as VTK's own writers do (its readers swap where the reader's host differs).
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+constexpr const char *VTK_BYTE_ORDER = "LittleEndian";
+#elif defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+constexpr const char *VTK_BYTE_ORDER = "BigEndian";
+#else
+#error "the VTK XML writers need the host's byte order (__BYTE_ORDER__)"
+#endif
+
 struct Lz4Blocks {
-    std::vector<uint64_t> header;  // the compressed-data header (host order: little-endian)
+    std::vector<uint64_t> header;  // the compressed-data header (host order)
     HugeArray<char> data;          // the compressed blocks end to end
     size_t size = 0;               // bytes in data
     size_t header_bytes() const { return header.size() * sizeof(uint64_t); }

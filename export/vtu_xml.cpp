@@ -30,10 +30,6 @@
 
 #include "internal.hpp"
 
-#if !defined(__BYTE_ORDER__) || __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
-#error "the .vtu writer writes the host's bytes as LittleEndian"
-#endif
-
 namespace ivexp {
 namespace {
 
@@ -626,9 +622,10 @@ void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *
         element(t, indent, a, offset);
         offset += a.data.bytes();
     };
-    std::string t = "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
-                    "byte_order=\"LittleEndian\" header_type=\"UInt64\" "
-                    "compressor=\"vtkLZ4DataCompressor\">\n  <UnstructuredGrid>\n    <FieldData>\n";
+    std::string t = "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"";
+    t += VTK_BYTE_ORDER;
+    t += "\" header_type=\"UInt64\" compressor=\"vtkLZ4DataCompressor\">\n"
+         "  <UnstructuredGrid>\n    <FieldData>\n";
     for (const Array &a : field)
         put(t, 6, a);
     t += "    </FieldData>\n    <Piece";

@@ -11,13 +11,14 @@
 # is left: the writer, loading the scene, exiting), and net_write_s that less the
 # same for the command without output (MB/s from it).  The minimum over --reps
 # runs (default 3) is kept: the machine may be shared.  --base IVOCT: another
-# binary (e.g. the main branch's) measured the same way, interleaved run by run,
-# so both see the same load.  Also the command's CPU time (user + sys, min over
-# the runs) and the writer's share of it, cpu_s less that of the same command
-# without output: with --threads 1 the least load-dependent number.  Writes
-# bench/results/writers.csv (binary, surface, output, bytes, build_s, write_s,
-# net_write_s, mb_per_s, cpu_s, write_cpu_s) and prints it as a table, with `uptime` before
-# and after.  Default: gumdrop at depth 9; --quick: depth 7, 1 run.
+# binary (e.g. the main branch's) measured the same way, interleaved run by run
+# in alternating order, so both see the same load.  Also the command's CPU time
+# (user + sys, min over the runs) and the writer's share of it, cpu_s less that
+# of the same command without output: with --threads 1 the least load-dependent
+# number.  Writes bench/results/writers.csv (binary, surface, output, bytes,
+# build_s, write_s, net_write_s, mb_per_s, cpu_s, write_cpu_s) and prints it as a
+# table, with `uptime` before and after.  Default: gumdrop at depth 9; --quick:
+# depth 7, 1 run.
 #
 # --same-values: no timing; every scenes/*.ini (or --surfaces) at depth 6, with the scene's chain
 # and with every test and --refine 0.01, written by both binaries: the CSV and
@@ -121,7 +122,11 @@ for s in $surfaces; do
         esac
         declare -A best_w=() best_b=() best_c=() size=()
         for r in $(seq "$reps"); do
-            for b in "${bins[@]}"; do
+            # the order alternates: on a virtual machine the second of two runs
+            # back to back gets the pages the first gave back, faster than fresh ones
+            order=("${bins[@]}")
+            [ $((r % 2)) = 0 ] && [ ${#bins[@]} = 2 ] && order=("${bins[1]}" "${bins[0]}")
+            for b in "${order[@]}"; do
                 bin=$new
                 [ "$b" = base ] && bin=$base
                 t0=$(date +%s.%N)

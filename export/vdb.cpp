@@ -307,7 +307,7 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
     // has not made (it knows f over cells, not at voxel centres): leaf node by
     // leaf node of the grid (up to 512 voxels, one evaluator pass), over
     // threads.  A distance estimate needs no enclosure: plain doubles
-    // (tape_eval_point_grad), a quarter of the interval gradient's cost.
+    // (tape_eval_point_grad), a fifth of the interval gradient's cost.
     openvdb::tree::LeafManager<openvdb::FloatTree> nodes(g->tree());
     const size_t n_nodes = nodes.leafCount(), chunk = 16;
     const int threads = writer_threads(t, (n_nodes + chunk - 1) / chunk);

@@ -168,10 +168,11 @@ void tape_eval_grad(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *bo
  * tape_eval_grad buys nothing).  out[k].v is tape_eval_point's value, bit
  * for bit.  The partials are those of the same rules as tape_eval_grad's,
  * rounded to nearest, so they lie close to the midpoints of tape_eval_grad's
- * enclosures at the point box (tests/test_eval_mpfi.c checks them against
- * MPFI within the width of those enclosures).  Where abs, min or max is at its
- * kink (abs at 0, min/max at a tie) the partials are the mean of the two
- * one-sided ones; NaN where f or a partial is undefined. */
+ * enclosures at the point box (test_eval and test_eval_mpfi check value and
+ * partials against MPFI within twice the width of those enclosures, plus
+ * 2^-50 relative).  Where abs, min or max is at its kink (abs at 0, min/max at
+ * a tie) the partials are the mean of the two one-sided ones; IEEE NaN or
+ * ±inf where f or a partial is undefined, as tape_eval_point. */
 typedef struct tape_point_grad {
     double v, dx, dy, dz;
 } tape_point_grad_t;

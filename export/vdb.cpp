@@ -16,10 +16,8 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/io/File.h>
 #include <openvdb/io/Stream.h>
-#include <openvdb/tools/Morphology.h>
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tools/VolumeToMesh.h>
-#include <openvdb/tree/LeafManager.h>
 
 #include "internal.hpp"
 
@@ -30,6 +28,7 @@ using openvdb::Coord;
 using openvdb::CoordBBox;
 using openvdb::FloatGrid;
 using openvdb::Vec3d;
+using Leaf = openvdb::FloatTree::LeafNodeType;
 
 // A std::ostream onto the FILE* of an io_file_t: OpenVDB writes into the
 // temporary file, io_commit checks, closes and renames it.
@@ -92,7 +91,6 @@ public:
     }
     void writeBuffers(std::ostream &os) const override
     {
-        using Leaf = openvdb::FloatTree::LeafNodeType;
         std::vector<const Leaf *> leaves;
         tree().getNodes(leaves);  // the order of Tree::writeBuffers: the tree's
         const uint32_t compression = openvdb::io::getDataCompression(os);
@@ -164,7 +162,6 @@ CoordBBox cell_voxels(int D, int d, uint32_t ix, uint32_t iy, uint32_t iz)
 // The shallower leaves are tiles (or tile-aligned fills), few, added after.
 FloatGrid::Ptr surface_grid(const oct_tree_t *t, const Frame &fr)
 {
-    using Leaf = openvdb::FloatTree::LeafNodeType;
     FloatGrid::Ptr g = FloatGrid::create(0.0f);
     g->setName("surface");
     g->setTransform(fr.xf->copy());
@@ -227,13 +224,32 @@ FloatGrid::Ptr surface_grid(const oct_tree_t *t, const Frame &fr)
     return g;
 }
 
+// Is the cell's lowest voxel (the first of its grid leaf node) in an empty
+// cell of class inside?
+bool first_voxel_inside(const oct_tree_t *t, uint32_t node)
+{
+    oct_node_t w = t->nodes[node];
+    while (OCT_NODE_KIND(w) == OCT_INTERIOR)
+        w = t->nodes[OCT_NODE_VALUE(w)];  // child 0: the low corner
+    return OCT_NODE_KIND(w) == OCT_EMPTY && OCT_NODE_VALUE(w) == OCT_INSIDE;
+}
+
 // Mark the empty cells of class inside with the inactive value -bg (the
-// background, +bg, stands for outside).
+// background, +bg, stands for outside).  A grid leaf node (a cell of depth
+// D - 3) split in the octree gets no voxels here: if it holds a band voxel,
+// the band's node made in sdf_grid replaces whatever is here; if not,
+// pruneLevelSet would make it a tile of the sign of its first voxel, and that
+// tile is what is made here.
 void fill_inside(const oct_tree_t *t, const Frame &fr, FloatGrid &g, float bg, uint32_t node,
                  int d, uint32_t ix, uint32_t iy, uint32_t iz)
 {
     oct_node_t w = t->nodes[node];
     if (OCT_NODE_KIND(w) == OCT_INTERIOR) {
+        if (d == fr.D - (int)Leaf::LOG2DIM) {
+            if (first_voxel_inside(t, node))
+                g.tree().fill(cell_voxels(fr.D, d, ix, iy, iz), -bg, false);
+            return;
+        }
         uint32_t first = OCT_NODE_VALUE(w);
         for (uint32_t c = 0; c < 8; c++)
             fill_inside(t, fr, g, bg, first + c, d + 1, 2 * ix + (c & 1), 2 * iy + (c >> 1 & 1),
@@ -244,6 +260,203 @@ void fill_inside(const oct_tree_t *t, const Frame &fr, FloatGrid &g, float bg, u
         else
             g.tree().fill(cell_voxels(fr.D, d, ix, iy, iz), -bg, false);
     }
+}
+
+// The inactive values of the voxels of one grid leaf node (origin o): -bg in
+// the empty cells of class inside, bg elsewhere.  The octree is walked down to
+// the node's cell (depth D - 3), then below it.
+void node_classes(const oct_tree_t *t, const Frame &fr, const Coord &o, float bg, float *v)
+{
+    std::fill(v, v + Leaf::SIZE, bg);
+    const int nd = std::max(fr.D - (int)Leaf::LOG2DIM, 0);
+    const uint32_t nx = (uint32_t)o[0] >> Leaf::LOG2DIM, ny = (uint32_t)o[1] >> Leaf::LOG2DIM,
+                   nz = (uint32_t)o[2] >> Leaf::LOG2DIM;
+    uint32_t node = 0;
+    for (int d = 0; d < nd; d++) {
+        const oct_node_t w = t->nodes[node];
+        if (OCT_NODE_KIND(w) != OCT_INTERIOR) {  // the whole node in one cell
+            if (OCT_NODE_KIND(w) == OCT_EMPTY && OCT_NODE_VALUE(w) == OCT_INSIDE)
+                std::fill(v, v + Leaf::SIZE, -bg);
+            return;
+        }
+        const int s = nd - d - 1;
+        node = OCT_NODE_VALUE(w) + ((nx >> s & 1) | (ny >> s & 1) << 1 | (nz >> s & 1) << 2);
+    }
+    // below the node's cell: (ix, iy, iz) within it at depth d
+    struct Walk {
+        const oct_tree_t *t;
+        int D;
+        float inside;
+        float *v;
+        void operator()(uint32_t node, int d, uint32_t ix, uint32_t iy, uint32_t iz) const
+        {
+            const oct_node_t w = t->nodes[node];
+            if (OCT_NODE_KIND(w) == OCT_INTERIOR) {
+                const uint32_t first = OCT_NODE_VALUE(w);
+                for (uint32_t c = 0; c < 8; c++)
+                    (*this)(first + c, d + 1, 2 * ix + (c & 1), 2 * iy + (c >> 1 & 1),
+                            2 * iz + (c >> 2 & 1));
+            } else if (OCT_NODE_KIND(w) == OCT_EMPTY && OCT_NODE_VALUE(w) == OCT_INSIDE) {
+                const uint32_t s = 1u << (D - d);
+                for (uint32_t x = ix * s; x < (ix + 1) * s; x++)
+                    for (uint32_t y = iy * s; y < (iy + 1) * s; y++)
+                        for (uint32_t z = iz * s; z < (iz + 1) * s; z++)
+                            v[x << 2 * Leaf::LOG2DIM | y << Leaf::LOG2DIM | z] = inside;
+            }
+        }
+    };
+    Walk{t, fr.D, -bg, v}(node, nd, 0, 0, 0);
+}
+
+// The band's voxels in the grid leaf node at o: the surface voxels within
+// EXP_SDF_HALF_WIDTH voxels of it (Chebyshev distance, what OpenVDB's
+// dilateActiveValues makes of NN_FACE_EDGE_VERTEX steps), within the box.
+// The surface voxels of o and its 26 neighbour nodes go into rows of z bits,
+// one per (x, y) of the node grown by the half width; the cube is the sum of
+// three segments, so the dilation is one axis at a time.
+constexpr int H = EXP_SDF_HALF_WIDTH;
+static_assert(H >= 0 && H <= (int)Leaf::DIM, "the band reaches only the neighbour nodes");
+using Mask = Leaf::NodeMaskType;
+
+template <class Accessor>
+bool band_mask(Accessor &surface, const Frame &fr, const Coord &o, Mask &out)
+{
+    constexpr int DIM = (int)Leaf::DIM, W = DIM + 2 * H;
+    uint32_t rows[W][W] = {};  // rows[x + H][y + H]: bit z + DIM for z in [-DIM, 2 DIM)
+    bool any = false;
+    for (int dx = -1; dx <= 1; dx++)
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dz = -1; dz <= 1; dz++) {
+                const Coord no = o.offsetBy(dx * DIM, dy * DIM, dz * DIM);
+                const Leaf *l = surface.probeConstLeaf(no);
+                if (!l && !surface.isValueOn(no))  // no node, no active tile
+                    continue;
+                any = true;
+                for (int lx = 0; lx < DIM; lx++) {
+                    const int ax = dx * DIM + lx;
+                    if (ax < -H || ax >= DIM + H)
+                        continue;
+                    const uint64_t word = l ? l->getValueMask().template getWord<uint64_t>(
+                                                  (openvdb::Index)lx)
+                                            : ~(uint64_t)0;
+                    for (int ly = 0; ly < DIM; ly++) {
+                        const int ay = dy * DIM + ly;
+                        if (ay < -H || ay >= DIM + H)
+                            continue;
+                        rows[ax + H][ay + H] |= (uint32_t)(word >> DIM * ly & 0xff)
+                                                << DIM * (dz + 1);
+                    }
+                }
+            }
+    if (!any)
+        return false;
+    for (auto &plane : rows)
+        for (uint32_t &r : plane) {
+            uint32_t d = r;
+            for (int k = 0; k < H; k++)
+                d |= d << 1 | d >> 1;
+            r = d;
+        }
+    // the box: voxels [0, n) on each axis (a node reaches past it only when D < 3)
+    uint32_t zmask = 0xffu;
+    int xlim = DIM, ylim = DIM;
+    if (fr.n < (uint32_t)DIM) {
+        zmask = (1u << fr.n) - 1;
+        xlim = ylim = (int)fr.n;
+    }
+    uint32_t cols[W][DIM];  // dilated along y
+    for (int a = 0; a < W; a++)
+        for (int y = 0; y < DIM; y++) {
+            uint32_t r = 0;
+            for (int b = y; b <= y + 2 * H; b++)
+                r |= rows[a][b];
+            cols[a][y] = r;
+        }
+    bool on = false;
+    for (int x = 0; x < xlim; x++) {
+        uint64_t word = 0;
+        for (int y = 0; y < ylim; y++) {
+            uint32_t r = 0;
+            for (int a = x; a <= x + 2 * H; a++)
+                r |= cols[a][y];
+            word |= (uint64_t)(r >> DIM & zmask) << DIM * y;
+        }
+        out.template getWord<uint64_t>((openvdb::Index)x) = word;
+        on = on || word;
+    }
+    for (int x = xlim; x < DIM; x++)
+        out.template getWord<uint64_t>((openvdb::Index)x) = 0;
+    return on;
+}
+
+// The grid leaf nodes the band may reach, as node coordinates (origin / 8)
+// packed 21 bits an axis, x first, sorted: each node of the surface grid and
+// those of its 26 neighbours (within the box) that its voxels come within the
+// half width of; every node a tile of the surface grid covers, and theirs.
+std::vector<uint64_t> band_candidates(const openvdb::FloatTree &surface, const Frame &fr)
+{
+    constexpr int DIM = (int)Leaf::DIM;
+    const int32_t nn = (int32_t)std::max(fr.n / (uint32_t)DIM, 1u);  // nodes per axis
+    std::vector<uint64_t> keys;
+    // lo[a], hi[a]: does the node reach its neighbour below / above on axis a?
+    auto add = [&](const Coord &node, const bool lo[3], const bool hi[3]) {
+        int32_t a[3], b[3];
+        for (int k = 0; k < 3; k++) {
+            a[k] = std::max(node[k] - (int32_t)lo[k], 0);
+            b[k] = std::min(node[k] + (int32_t)hi[k], nn - 1);
+        }
+        for (int32_t x = a[0]; x <= b[0]; x++)
+            for (int32_t y = a[1]; y <= b[1]; y++)
+                for (int32_t z = a[2]; z <= b[2]; z++)
+                    keys.push_back((uint64_t)x << 42 | (uint64_t)y << 21 | (uint64_t)z);
+    };
+    keys.reserve(8 * surface.leafCount());
+    for (auto it = surface.cbeginLeaf(); it; ++it) {
+        // the extent of the node's voxels: x from its words, y from the bytes
+        // of their union, z from the union of those bytes
+        const Mask &m = it->getValueMask();
+        int x0 = DIM, x1 = -1;
+        uint64_t all = 0;
+        for (int x = 0; x < DIM; x++) {
+            const uint64_t w = m.template getWord<uint64_t>((openvdb::Index)x);
+            if (w) {
+                x0 = std::min(x0, x);
+                x1 = x;
+                all |= w;
+            }
+        }
+        if (!all)
+            continue;
+        int y0 = DIM, y1 = -1;
+        unsigned zs = 0;
+        for (int y = 0; y < DIM; y++) {
+            const unsigned byte = (unsigned)(all >> DIM * y & 0xff);
+            if (byte) {
+                y0 = std::min(y0, y);
+                y1 = y;
+                zs |= byte;
+            }
+        }
+        const int z0 = __builtin_ctz(zs), z1 = 31 - __builtin_clz(zs);
+        const bool lo[3] = {x0 < H, y0 < H, z0 < H};
+        const bool hi[3] = {x1 >= DIM - H, y1 >= DIM - H, z1 >= DIM - H};
+        add(it->origin() >> Leaf::LOG2DIM, lo, hi);
+    }
+    // the active tiles (surface leaves of depth D - 3 or less)
+    const bool every[3] = {true, true, true};
+    auto tile = surface.cbeginValueOn();
+    tile.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1);
+    for (; tile; ++tile) {
+        CoordBBox b = tile.getBoundingBox();
+        b.intersect(CoordBBox(Coord(0), Coord((int32_t)fr.n - 1)));
+        for (int32_t x = b.min()[0]; x <= b.max()[0]; x += DIM)
+            for (int32_t y = b.min()[1]; y <= b.max()[1]; y += DIM)
+                for (int32_t z = b.min()[2]; z <= b.max()[2]; z += DIM)
+                    add(Coord(x, y, z) >> Leaf::LOG2DIM, every, every);
+    }
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    return keys;
 }
 
 // The surface grid and the narrow-band level set (see export.h): surface set
@@ -258,9 +471,9 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
     g->setTransform(fr.xf->copy());
 
     // The inside cells (a walk of the octree into the sdf tree) and the
-    // surface grid with its dilated band (into their own trees) share nothing
-    // until the union: one thread each when the build had two or more, the
-    // walk and surface_grid being serial (the dilation is threaded by OpenVDB).
+    // surface grid with the band's nodes (their own trees and nodes) share
+    // nothing until the band's nodes go into the tree: one thread each when
+    // the build had two or more, the walk being serial.
     std::exception_ptr inside_failed;
     auto inside_task = [&] {
         try {
@@ -288,54 +501,52 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
     } join{inside};  // also when the code below throws
 
     surface_out = surface_grid(t, fr);
-    const FloatGrid &surface = *surface_out;
-    // the band: the surface leaves dilated by the half width, within the box
-    openvdb::MaskTree band(surface.tree(), false, openvdb::TopologyCopy());
-    openvdb::tools::dilateActiveValues(band, EXP_SDF_HALF_WIDTH, openvdb::tools::NN_FACE_EDGE_VERTEX,
-                                       openvdb::tools::EXPAND_TILES);
-    band.clip(CoordBBox(Coord(0), Coord((int32_t)fr.n - 1)));
-    if (inside.joinable())
-        inside.join();
-    if (inside_failed)
-        std::rethrow_exception(inside_failed);
-    g->tree().topologyUnion(band);
-    g->tree().voxelizeActiveTiles();
+    const openvdb::FloatTree &stree = surface_out->tree();
 
-    // values at the voxel centres: f / |grad f|, clamped; outside the surface
-    // leaves the sign is the octree's class (the value the voxel had: -bg or bg).
-    // f and its gradient at every band voxel are the one evaluation the build
-    // has not made (it knows f over cells, not at voxel centres): leaf node by
-    // leaf node of the grid (up to 512 voxels, one evaluator pass), over
-    // threads.  A distance estimate needs no enclosure: plain doubles
+    // The band's grid leaf nodes, made whole over threads: their voxels
+    // (band_mask), their inactive values (node_classes: bg, or -bg inside)
+    // and at the active ones f / |grad f|, clamped; outside the
+    // surface leaves the sign is the octree's class.  f and its gradient at
+    // every band voxel are the one evaluation the build has not made (it knows
+    // f over cells, not at voxel centres): one evaluator pass a node (up to 512
+    // voxels).  A distance estimate needs no enclosure: plain doubles
     // (tape_eval_point_grad), a fifth of the interval gradient's cost.
-    openvdb::tree::LeafManager<openvdb::FloatTree> nodes(g->tree());
-    const size_t n_nodes = nodes.leafCount(), chunk = 16;
-    const int threads = writer_threads(t, (n_nodes + chunk - 1) / chunk);
+    const std::vector<uint64_t> keys = band_candidates(stree, fr);
+    const size_t chunk = 64;
+    std::vector<std::vector<std::unique_ptr<Leaf>>> made((keys.size() + chunk - 1) / chunk);
+    const int threads = writer_threads(t, made.size());
     std::vector<std::unique_ptr<Workspace>> ws;
     for (int w = 0; w < threads; w++)
         ws.push_back(std::make_unique<Workspace>(tape));
-    const openvdb::FloatTree &stree = surface.tree();
-    parallel_chunks(n_nodes, chunk, threads, [&](size_t s, size_t e, int w) {
-        using Leaf = openvdb::FloatTree::LeafNodeType;
+    parallel_chunks(keys.size(), chunk, threads, [&](size_t s, size_t e, int w) {
         constexpr size_t N = Leaf::SIZE;
+        openvdb::tree::ValueAccessor<const openvdb::FloatTree> acc(stree);
         std::vector<double> x(N), y(N), z(N);
         std::vector<tape_point_grad_t> out(N);
         std::vector<openvdb::Index> offset(N);
         std::vector<signed char> sign(N);  // 0: in a surface leaf
         double p[3][Leaf::DIM];            // voxel centres along each axis
+        Mask mask;
         for (size_t i = s; i < e; i++) {
-            Leaf &node = nodes.leaf(i);
-            const Coord o = node.origin();
-            // the surface grid's voxels here: its leaf node of the same origin
-            // (both trees have the same nodes), else one tile covers the node
-            const Leaf *sl = stree.probeConstLeaf(o);
-            const bool s_tile_on = !sl && stree.isValueOn(o);
+            const uint64_t k = keys[i];
+            const Coord o = Coord((int32_t)(k >> 42), (int32_t)(k >> 21 & 0x1fffff),
+                                  (int32_t)(k & 0x1fffff))
+                            << Leaf::LOG2DIM;
+            if (!band_mask(acc, fr, o, mask))
+                continue;
+            auto node = std::make_unique<Leaf>(o, bg, false);
+            float *v = node->buffer().data();  // the node's values, written in place
+            node_classes(t, fr, o, bg, v);
+            node->setValueMask(mask);
+            // the surface grid's voxels here: its leaf node of the same origin,
+            // else one tile covers the node
+            const Leaf *sl = acc.probeConstLeaf(o);
+            const bool s_tile_on = !sl && acc.isValueOn(o);
             for (int a = 0; a < 3; a++)
-                for (openvdb::Index k = 0; k < Leaf::DIM; k++)
-                    p[a][k] = fr.lo[a] + ((double)(o[a] + (int32_t)k) + 0.5) * fr.h[a];
-            float *v = node.buffer().data();  // the node's values, written in place
+                for (openvdb::Index j = 0; j < Leaf::DIM; j++)
+                    p[a][j] = fr.lo[a] + ((double)(o[a] + (int32_t)j) + 0.5) * fr.h[a];
             size_t m = 0;
-            for (auto it = node.getValueMask().beginOn(); it; ++it, m++) {
+            for (auto it = mask.beginOn(); it; ++it, m++) {
                 const openvdb::Index n = it.pos();  // (x << 6) | (y << 3) | z
                 offset[m] = n;
                 const bool in_surface = sl ? sl->isValueOn(n) : s_tile_on;
@@ -346,21 +557,31 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
             }
             tape_eval_point_grad(tape, ws[(size_t)w]->ws, m, x.data(), y.data(), z.data(),
                                  out.data());
-            for (size_t k = 0; k < m; k++) {
-                const tape_point_grad_t &q = out[k];
+            for (size_t j = 0; j < m; j++) {
+                const tape_point_grad_t &q = out[j];
                 double f = q.v;
                 double gn = std::sqrt(q.dx * q.dx + q.dy * q.dy + q.dz * q.dz);
                 double d = gn > 0 && std::isfinite(gn) ? f / gn : f > 0 ? bg : f < 0 ? -bg : 0;
                 if (std::isnan(d))  // f undefined here: outside
                     d = bg;
                 d = std::max(-(double)bg, std::min((double)bg, d));
-                int cls = sign[k];
+                int cls = sign[j];
                 if (cls != 0 && !(d * cls > 0))  // the certified class wins; keep |d| if any
                     d = cls * std::max(std::fabs(d), 1e-3 * fr.max_h());
-                v[offset[k]] = (float)d;
+                v[offset[j]] = (float)d;
             }
+            made[s / chunk].push_back(std::move(node));
         }
     });
+    if (inside.joinable())
+        inside.join();
+    if (inside_failed)
+        std::rethrow_exception(inside_failed);
+    // each replaces what fill_inside left at its place (a tile or nothing; a
+    // node of voxels when D < 3)
+    for (auto &v : made)
+        for (auto &node : v)
+            g->tree().addLeaf(node.release());
     openvdb::tools::pruneLevelSet(g->tree());
     return g;
 }

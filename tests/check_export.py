@@ -255,6 +255,29 @@ def check_vdb(path, st, cells, htg, sphere):
     dist = np.zeros((n, n, n), dtype=np.float32)
     sdf.copyToArray(dist, ijk=(0, 0, 0))
     check(np.all(np.abs(dist) <= bg * (1 + 1e-6)), "vdb sdf: values beyond the background")
+    # the band: the sdf's active voxels are the surface leaves' voxels dilated by 3
+    # voxels (Chebyshev distance, OpenVDB's 26-neighbour dilation 3 times), within the box
+    leaves = np.zeros((n, n, n), dtype=bool)
+    size = (2 ** (D - cells["depth"].astype(int)))
+    deepest = size == 1
+    leaves[ijk[deepest, 0], ijk[deepest, 1], ijk[deepest, 2]] = True
+    for (i, j, k), w in zip(ijk[~deepest], size[~deepest]):
+        leaves[i:i + w, j:j + w, k:k + w] = True
+    band = leaves
+    for axis in range(3):
+        grown = band.copy()
+        for step in range(1, 4):
+            lo_, hi_ = [slice(None)] * 3, [slice(None)] * 3
+            lo_[axis], hi_[axis] = slice(step, None), slice(None, -step)
+            grown[tuple(lo_)] |= band[tuple(hi_)]
+            grown[tuple(hi_)] |= band[tuple(lo_)]
+        band = grown
+    active = np.zeros((n, n, n), dtype=bool)
+    for item in sdf.iterOnValues():
+        (i0, j0, k0), (i1, j1, k1) = item["min"], item["max"]
+        active[i0:i1 + 1, j0:j1 + 1, k0:k1 + 1] = True
+    check(np.array_equal(active, band), "vdb sdf: %d active voxels, %d in the dilated surface, %d differ"
+          % (np.count_nonzero(active), np.count_nonzero(band), np.count_nonzero(active != band)))
     if htg is not None:
         b, cls = htg["bounds"], htg["class"]
         centre = (b[:, [0, 2, 4]] + b[:, [1, 3, 5]]) / 2

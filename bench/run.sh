@@ -92,6 +92,13 @@ fi
 part "the writers of ivoct build: seconds per output against the build (bench/writers.sh)"
 bash "$here/writers.sh" --build "$build" "${q[@]}"
 
+part "start-up: whole small commands, against \$IVOCT_BENCH_BASE when set (bench/startup.sh)"
+if [ "$quick" = 1 ]; then
+    bash "$here/startup.sh" --build "$build" ${IVOCT_BENCH_BASE:+--base "$IVOCT_BENCH_BASE"} --reps 5
+else
+    bash "$here/startup.sh" --build "$build" ${IVOCT_BENCH_BASE:+--base "$IVOCT_BENCH_BASE"}
+fi
+
 part "parametric scenes: implicitization against build and render (bench/implicitize.sh)"
 if [ "$quick" = 1 ]; then
     bash "$here/implicitize.sh" --build "$build" --reps 1 --depth 5 --size 64x64

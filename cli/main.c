@@ -30,7 +30,10 @@ static const char USAGE[] =
     "Exit codes: 0 ok, 1 runtime failure, 2 usage or input error; SIGINT, SIGTERM\n"
     "and SIGHUP end it by the signal (130, 143, 129), leaving no output of the command.\n"
     "Environment: IVOCT_SIMD=portable|avx2|avx512 forces the evaluators' SIMD path\n"
-    "(default: the widest this CPU runs; every path gives the same results).\n";
+    "(default: the widest this CPU runs; every path gives the same results);\n"
+    "IVOCT_OPENVDB_MODULE=FILE the OpenVDB module (libivoct_openvdb.so) that .vdb files,\n"
+    "meshes and 'ivoct info' of a .vdb load on first use (default: the build's or the\n"
+    "installed one).\n";
 
 int main(int argc, char **argv)
 {

@@ -1,4 +1,4 @@
-// ivoct export/ — the C entry points, output files, the LZ4 blocks of the VTK XML
+// ivoct export/ — the C entry points, the LZ4 blocks of the VTK XML
 // writers, .ply and .obj meshes, and recognising files for `ivoct info`.  Includes
 // neither VTK's data objects nor OpenVDB: only the LZ4 library VTK links.
 #include <cerrno>
@@ -22,36 +22,6 @@
 #include "internal.hpp"
 
 namespace ivexp {
-
-Output::Output(const char *path) : path_(path)
-{
-    ivoct_error_t err;
-    ivoct_error_clear(&err);
-    if (io_open(&f_, path, &err))
-        throw Error(err.msg);
-    open_ = true;
-}
-
-Output::~Output()
-{
-    if (open_)
-        io_abort(&f_);
-}
-
-void Output::write(const void *data, size_t n)
-{
-    if (n && fwrite(data, 1, n, f_.f) != n)
-        throw Error("cannot write " + path_ + ": " + std::strerror(errno ? errno : EIO));
-}
-
-void Output::commit()
-{
-    ivoct_error_t err;
-    ivoct_error_clear(&err);
-    open_ = false;
-    if (io_commit(&f_, &err))  // removes the temporary on failure
-        throw Error(err.msg);
-}
 
 // ---- LZ4 blocks (internal.hpp) --------------------------------------------------------
 namespace {
@@ -137,20 +107,6 @@ Lz4Blocks lz4_blocks(const void *data, size_t n, int threads, const char *path)
     return lz4_blocks(n, threads,
                       [p](size_t at, size_t, unsigned char *) -> const void * { return p + at; },
                       path);
-}
-
-std::vector<MetaItem> meta_strings(const oct_source_t *src)
-{
-    std::vector<MetaItem> items;
-    if (src && src->name)
-        items.push_back({"scene", src->name});
-    for (size_t i = 0; src && i < src->n_lets; i++)
-        if (src->let_names && src->let_texts && src->let_names[i] && src->let_texts[i])
-            items.push_back({std::string("let.") + src->let_names[i], src->let_texts[i]});
-    if (src && src->f)
-        items.push_back({"expression", src->f});
-    items.push_back({"creator", "ivoct"});
-    return items;
 }
 
 namespace {
@@ -628,6 +584,10 @@ int exp_info(const char *path, FILE *out, ivoct_error_t *err)
     Format fmt = sniff(path);
     if (fmt == Format::none)
         return 1;
+    // the OpenVDB module is opened here, not in the child: dlopen after a fork
+    // of a process with threads is not safe
+    if (fmt == Format::vdb && guard(err, [&] { vdb_load(path); }))
+        return -1;
     return info_in_child(fmt, path, out, err);
 }
 

@@ -1,8 +1,9 @@
 // ivoct export/ — what the translation units share (internal to export/).
 //
 // vtk.cpp holds everything that includes VTK, vdb.cpp everything that includes
-// OpenVDB (slow to compile: one file), common.cpp what needs neither.  They
-// meet here through plain types.
+// OpenVDB (slow to compile: one file, built as a module of its own, loaded on
+// first use: vdb_module.h), common.cpp what needs neither.  They meet here
+// through plain types.
 #ifndef IVOCT_EXPORT_INTERNAL_HPP
 #define IVOCT_EXPORT_INTERNAL_HPP
 
@@ -131,7 +132,10 @@ std::vector<MetaItem> meta_strings(const oct_source_t *src);
 void write_cells(const oct_tree_t *tree, const char *path, int threads);
 size_t cells_memory(const oct_tree_t *tree, int threads);
 
-// vdb.cpp
+// vdb.cpp, in the OpenVDB module (vdb_module.h), reached through vdb_load.cpp;
+// vdb_load opens the module now (before a fork: `ivoct info` reads in a child),
+// or throws Error("cannot read PATH: why").
+void vdb_load(const char *path);
 void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
                const char *path);
 Mesh vdb_mesh(const oct_tree_t *tree, const tape_t *tape);

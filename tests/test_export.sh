@@ -152,4 +152,37 @@ for opt in vtu htg vdb mesh; do
     no_temporaries "--$opt errors"
 done
 
+# ---- the OpenVDB module (export/vdb_module.h): loaded by the outputs that need it only -------
+# The CLI does not link libopenvdb (its start-up would pay for it), and loads the module
+# for a .vdb, a mesh or `ivoct info` of a .vdb.
+if readelf -d "$BIN" | grep -q 'NEEDED.*libopenvdb'; then
+    fail "ivoct links libopenvdb (it belongs to the module libivoct_openvdb.so)"
+else
+    ok
+fi
+LD_DEBUG=files "$BIN" build "$SCENES/sphere.ini" --depth 4 --quiet --vtu "$TMP/nomod.vtu" \
+    2>"$TMP/ld" >/dev/null
+grep -q 'libopenvdb' "$TMP/ld" && fail "--vtu loaded libopenvdb" || ok
+LD_DEBUG=files "$BIN" build "$SCENES/sphere.ini" --depth 4 --quiet --vdb "$TMP/mod.vdb" \
+    2>"$TMP/ld" >/dev/null
+grep -q 'libivoct_openvdb.so' "$TMP/ld" && ok || fail "--vdb did not load the OpenVDB module"
+# without it: the outputs that need it fail, clearly, and leave nothing; the others work
+for opt in vdb mesh; do
+    case $opt in mesh) ext=ply ;; *) ext=$opt ;; esac
+    IVOCT_OPENVDB_MODULE=$TMP/no-such-module.so run 1 "--$opt without the module" -- \
+        build "$SCENES/sphere.ini" --depth 4 --quiet --cells "$TMP/nomod.csv" "--$opt" "$TMP/nomod.$ext" &&
+        one_line_error "--$opt without the module" "libivoct_openvdb.so" "no-such-module.so"
+    no_files "--$opt without the module" "$TMP/nomod.csv" "$TMP/nomod.$ext"
+    no_temporaries "--$opt without the module"
+done
+IVOCT_OPENVDB_MODULE=$SRC/README.md run 1 "--vdb with a file that is not the module" -- \
+    build "$SCENES/sphere.ini" --depth 4 --quiet --vdb "$TMP/nomod.vdb" &&
+    one_line_error "--vdb with a file that is not the module" "cannot load" "README.md"
+IVOCT_OPENVDB_MODULE=$TMP/no-such-module.so run 2 "info of a .vdb without the module" -- \
+    info "$TMP/mod.vdb" && one_line_error "info of a .vdb without the module" "libivoct_openvdb.so"
+IVOCT_OPENVDB_MODULE=$TMP/no-such-module.so run 0 "--vtu and info of a .vtu without the module" -- \
+    build "$SCENES/sphere.ini" --depth 4 --quiet --vtu "$TMP/nomod.vtu"
+IVOCT_OPENVDB_MODULE=$TMP/no-such-module.so run 0 "info of a .vtu without the module" -- \
+    info "$TMP/nomod.vtu"
+
 cli_summary

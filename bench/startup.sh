@@ -10,10 +10,11 @@
 # error of the mean printed:
 #   --version                               start-up alone
 #   build sphere --depth 5                  a small build, no output
-#   build sphere --depth 5 --vtu F          a VTK output
-#   build sphere --depth 5 --vdb F          an OpenVDB output (loads the module)
+#   build sphere --depth 5 --vtu F          a VTK file written without VTK
+#   build sphere --depth 5 --htg F          a VTK file (loads the VTK module)
+#   build sphere --depth 5 --vdb F          an OpenVDB file (loads the OpenVDB module)
 #   render sphere --size 32x32              a small render (the octree built in it)
-#   info F.vdb                              reading a .vdb back
+#   info F.vtu, info F.vdb                  reading them back (each loads its module)
 # Prints a table, with `uptime` before and after; the machine has 2 cores and is
 # shared: run it with nothing else going.
 set -euo pipefail
@@ -28,7 +29,7 @@ while [ $# -gt 0 ]; do
     --build) build_dir=$2; shift ;;
     --base) base=$2; shift ;;
     --reps) reps=$2; shift ;;
-    -h | --help) sed -n '2,18p' "$0"; exit 0 ;;
+    -h | --help) sed -n '2,19p' "$0"; exit 0 ;;
     *) echo "bench/startup.sh: unknown option $1" >&2; exit 2 ;;
     esac
     shift
@@ -38,7 +39,7 @@ new=$build_dir/cli/ivoct
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 scene=$root/scenes/sphere.ini
-"$new" build "$scene" --depth 5 --quiet --vdb "$work/read.vdb"
+"$new" build "$scene" --depth 5 --quiet --vdb "$work/read.vdb" --vtu "$work/read.vtu"
 
 # the mean wall time of N runs of CMD..., and the standard error of that mean
 mean_wall() {
@@ -68,7 +69,9 @@ run_case() {
 run_case "--version" --version
 run_case "build --depth 5" build "$scene" --depth 5 --quiet
 run_case "build --depth 5 --vtu" build "$scene" --depth 5 --quiet --vtu "$work/x.vtu"
+run_case "build --depth 5 --htg" build "$scene" --depth 5 --quiet --htg "$work/x.htg"
 run_case "build --depth 5 --vdb" build "$scene" --depth 5 --quiet --vdb "$work/x.vdb"
 run_case "render --size 32x32" render "$scene" --size 32x32 --quiet --png "$work/x.png"
+run_case "info F.vtu" info "$work/read.vtu"
 run_case "info F.vdb" info "$work/read.vdb"
 echo "load after:  $(uptime)"

@@ -31,9 +31,9 @@ static const char USAGE[] =
     "and SIGHUP end it by the signal (130, 143, 129), leaving no output of the command.\n"
     "Environment: IVOCT_SIMD=portable|avx2|avx512 forces the evaluators' SIMD path\n"
     "(default: the widest this CPU runs; every path gives the same results);\n"
-    "IVOCT_OPENVDB_MODULE=FILE the OpenVDB module (libivoct_openvdb.so) that .vdb files,\n"
-    "meshes and 'ivoct info' of a .vdb load on first use (default: the build's or the\n"
-    "installed one).\n";
+    "IVOCT_OPENVDB_MODULE=FILE, IVOCT_VTK_MODULE=FILE the modules (libivoct_openvdb.so,\n"
+    "libivoct_vtk.so) that .vdb, .htg and .vtp files, meshes and 'ivoct info' of them\n"
+    "load on first use (default: the build's, or the installed ones).\n";
 
 int main(int argc, char **argv)
 {

@@ -1,9 +1,9 @@
 // ivoct export/ — what the translation units share (internal to export/).
 //
-// vtk.cpp holds everything that includes VTK, vdb.cpp everything that includes
-// OpenVDB (slow to compile: one file, built as a module of its own, loaded on
-// first use: vdb_module.h), common.cpp what needs neither.  They meet here
-// through plain types.
+// vtk.cpp and htg_xml.cpp hold everything that includes VTK, vdb.cpp everything
+// that includes OpenVDB (slow to compile: one file); each library's files are a
+// module of their own, loaded on first use (module.h).  The other files need
+// neither.  They meet here through plain types.
 #ifndef IVOCT_EXPORT_INTERNAL_HPP
 #define IVOCT_EXPORT_INTERNAL_HPP
 
@@ -132,7 +132,7 @@ std::vector<MetaItem> meta_strings(const oct_source_t *src);
 void write_cells(const oct_tree_t *tree, const char *path, int threads);
 size_t cells_memory(const oct_tree_t *tree, int threads);
 
-// vdb.cpp, in the OpenVDB module (vdb_module.h), reached through vdb_load.cpp;
+// vdb.cpp, in the OpenVDB module (module.h), reached through module_load.cpp;
 // vdb_load opens the module now (before a fork: `ivoct info` reads in a child),
 // or throws Error("cannot read PATH: why").
 void vdb_load(const char *path);
@@ -141,7 +141,9 @@ void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *s
 Mesh vdb_mesh(const oct_tree_t *tree, const tape_t *tape);
 void vdb_info(const char *path, FILE *out);
 
-// vtu_xml.cpp (.vtu), htg_xml.cpp (.htg), vtk.cpp (the rest)
+// vtu_xml.cpp (.vtu); htg_xml.cpp (.htg) and vtk.cpp (the rest) in the VTK module
+// (module.h), reached through module_load.cpp; vtk_load as vdb_load.
+void vtk_load(const char *path);
 void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *path);
 void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
                    const char *path);

@@ -1,6 +1,6 @@
 // ivoct export/ — output files (io/'s temporaries, renamed when complete) and the
-// metadata strings of every format.  Built into export/ and into its OpenVDB
-// module alike (vdb_module.h): the io/ functions it calls are the host's in both.
+// metadata strings of every format.  Built into export/ and into each of its
+// modules (module.h): the io/ functions it calls are the host's in all of them.
 #include <cerrno>
 #include <cstring>
 

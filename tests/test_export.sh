@@ -152,37 +152,60 @@ for opt in vtu htg vdb mesh; do
     no_temporaries "--$opt errors"
 done
 
-# ---- the OpenVDB module (export/vdb_module.h): loaded by the outputs that need it only -------
-# The CLI does not link libopenvdb (its start-up would pay for it), and loads the module
-# for a .vdb, a mesh or `ivoct info` of a .vdb.
-if readelf -d "$BIN" | grep -q 'NEEDED.*libopenvdb'; then
-    fail "ivoct links libopenvdb (it belongs to the module libivoct_openvdb.so)"
+# ---- the modules (export/module.h): loaded by the outputs that need them only -----------------
+# The CLI links neither libopenvdb nor VTK (its start-up would pay for them): a .vdb, a
+# mesh and `ivoct info` of a .vdb load libivoct_openvdb.so; a .htg, a .vtp and `ivoct
+# info` of a VTK file load libivoct_vtk.so; the CSV and the .vtu need neither.
+if readelf -d "$BIN" | grep -q 'NEEDED.*\(libopenvdb\|libvtk\)'; then
+    fail "ivoct links libopenvdb or VTK (they belong to the modules)"
 else
     ok
 fi
-LD_DEBUG=files "$BIN" build "$SCENES/sphere.ini" --depth 4 --quiet --vtu "$TMP/nomod.vtu" \
-    2>"$TMP/ld" >/dev/null
-grep -q 'libopenvdb' "$TMP/ld" && fail "--vtu loaded libopenvdb" || ok
-LD_DEBUG=files "$BIN" build "$SCENES/sphere.ini" --depth 4 --quiet --vdb "$TMP/mod.vdb" \
-    2>"$TMP/ld" >/dev/null
-grep -q 'libivoct_openvdb.so' "$TMP/ld" && ok || fail "--vdb did not load the OpenVDB module"
-# without it: the outputs that need it fail, clearly, and leave nothing; the others work
-for opt in vdb mesh; do
-    case $opt in mesh) ext=ply ;; *) ext=$opt ;; esac
-    IVOCT_OPENVDB_MODULE=$TMP/no-such-module.so run 1 "--$opt without the module" -- \
-        build "$SCENES/sphere.ini" --depth 4 --quiet --cells "$TMP/nomod.csv" "--$opt" "$TMP/nomod.$ext" &&
-        one_line_error "--$opt without the module" "libivoct_openvdb.so" "no-such-module.so"
-    no_files "--$opt without the module" "$TMP/nomod.csv" "$TMP/nomod.$ext"
-    no_temporaries "--$opt without the module"
+# loaded_by WHAT WANT_OPENVDB WANT_VTK -- ARGS...: which modules `ivoct ARGS` loads
+loaded_by() {
+    local what=$1 want_vdb=$2 want_vtk=$3 got_vdb=0 got_vtk=0
+    shift 4
+    LD_DEBUG=files "$BIN" "$@" 2>"$TMP/ld" >/dev/null || fail "$what: exit $?"
+    grep -q 'file=.*libivoct_openvdb.so' "$TMP/ld" && got_vdb=1
+    grep -q 'file=.*libivoct_vtk.so' "$TMP/ld" && got_vtk=1
+    [ "$got_vdb$got_vtk" = "$want_vdb$want_vtk" ] && ok ||
+        fail "$what: loaded the OpenVDB module $got_vdb, the VTK module $got_vtk; expected $want_vdb, $want_vtk"
+}
+M=$TMP/modules
+loaded_by "--cells --vtu --save" 0 0 -- build "$SCENES/sphere.ini" --depth 4 --quiet \
+    --cells "$M.csv" --vtu "$M.vtu" --save "$M.ivo"
+loaded_by "--vdb" 1 0 -- build "$SCENES/sphere.ini" --depth 4 --quiet --vdb "$M.vdb"
+loaded_by "--mesh .ply" 1 0 -- build "$SCENES/sphere.ini" --depth 4 --quiet --mesh "$M.ply"
+loaded_by "--htg" 0 1 -- build "$SCENES/sphere.ini" --depth 4 --quiet --htg "$M.htg"
+loaded_by "--mesh .vtp" 1 1 -- build "$SCENES/sphere.ini" --depth 4 --quiet --mesh "$M.vtp"
+loaded_by "info .vdb" 1 0 -- info "$M.vdb"
+loaded_by "info .vtu" 0 1 -- info "$M.vtu"
+loaded_by "info .ivo" 0 0 -- info "$M.ivo"
+loaded_by "render" 0 0 -- render "$SCENES/sphere.ini" --size 16x16 --quiet --png "$M.png"
+# without a module: the outputs that need it fail, clearly, and leave nothing; the others work
+for case in "IVOCT_OPENVDB_MODULE vdb vdb libivoct_openvdb.so" "IVOCT_OPENVDB_MODULE mesh ply libivoct_openvdb.so" \
+    "IVOCT_VTK_MODULE htg htg libivoct_vtk.so" "IVOCT_VTK_MODULE mesh vtp libivoct_vtk.so"; do
+    set -- $case
+    var=$1 opt=$2 ext=$3 module=$4
+    env "$var=$TMP/no-such-module.so" "$BIN" build "$SCENES/sphere.ini" --depth 4 --quiet \
+        --cells "$TMP/nomod.csv" "--$opt" "$TMP/nomod.$ext" >"$TMP/out" 2>"$TMP/err"
+    [ $? -eq 1 ] && ok || fail "--$opt without $module: exit not 1"
+    one_line_error "--$opt without $module" "$module" "no-such-module.so"
+    no_files "--$opt without $module" "$TMP/nomod.csv" "$TMP/nomod.$ext"
+    no_temporaries "--$opt without $module"
 done
 IVOCT_OPENVDB_MODULE=$SRC/README.md run 1 "--vdb with a file that is not the module" -- \
     build "$SCENES/sphere.ini" --depth 4 --quiet --vdb "$TMP/nomod.vdb" &&
     one_line_error "--vdb with a file that is not the module" "cannot load" "README.md"
-IVOCT_OPENVDB_MODULE=$TMP/no-such-module.so run 2 "info of a .vdb without the module" -- \
-    info "$TMP/mod.vdb" && one_line_error "info of a .vdb without the module" "libivoct_openvdb.so"
-IVOCT_OPENVDB_MODULE=$TMP/no-such-module.so run 0 "--vtu and info of a .vtu without the module" -- \
-    build "$SCENES/sphere.ini" --depth 4 --quiet --vtu "$TMP/nomod.vtu"
-IVOCT_OPENVDB_MODULE=$TMP/no-such-module.so run 0 "info of a .vtu without the module" -- \
-    info "$TMP/nomod.vtu"
+IVOCT_VTK_MODULE=$(dirname "$BIN")/../lib/ivoct/libivoct_openvdb.so run 1 "--htg with the other module" -- \
+    build "$SCENES/sphere.ini" --depth 4 --quiet --htg "$TMP/nomod.htg" &&
+    one_line_error "--htg with the other module" "is not the libivoct_vtk.so of this ivoct"
+IVOCT_OPENVDB_MODULE=$TMP/no-such-module.so run 2 "info of a .vdb without its module" -- \
+    info "$M.vdb" && one_line_error "info of a .vdb without its module" "libivoct_openvdb.so"
+IVOCT_VTK_MODULE=$TMP/no-such-module.so run 2 "info of a .vtu without its module" -- \
+    info "$M.vtu" && one_line_error "info of a .vtu without its module" "libivoct_vtk.so"
+env IVOCT_OPENVDB_MODULE="$TMP/no-such-module.so" IVOCT_VTK_MODULE="$TMP/no-such-module.so" \
+    "$BIN" build "$SCENES/sphere.ini" --depth 4 --quiet --vtu "$TMP/nomod.vtu" --cells "$TMP/nomod.csv" \
+    >/dev/null 2>"$TMP/err" && ok || fail "--vtu --cells without the modules: $(cat "$TMP/err")"
 
 cli_summary

@@ -4,7 +4,6 @@
 #ifndef IVOCT_CLI_H
 #define IVOCT_CLI_H
 
-#include <stdatomic.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -242,9 +241,13 @@ typedef struct cli_progress {
 /* The callback: user is a cli_progress_t. */
 void cli_show_progress(void *user, double fraction);
 
-/* Non-zero while a bar is on screen without its newline (the signal thread
- * ends the line before its message). */
-extern atomic_int cli_progress_open;
+/* The bar and the signal thread share the terminal's last line: the bar is
+ * drawn between cli_progress_lock, which returns 0 (and does not lock) once a
+ * signal is being handled, and cli_progress_unlock, told whether the line was
+ * left open (no newline yet); the signal thread ends an open line, under the
+ * same lock, before its message, and no bar is drawn after it (signals.c). */
+int cli_progress_lock(void);
+void cli_progress_unlock(int line_open);
 
 /* ---- signals (signals.c) ---------------------------------------------------------
  * SIGINT, SIGTERM and SIGHUP are taken by a thread of their own, which removes

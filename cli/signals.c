@@ -26,7 +26,23 @@ static sigset_t handled;
 static const char *command = "ivoct";
 static atomic_int interrupted;
 static atomic_int settled; /* cli_signals_settled: nothing to report any more */
-atomic_int cli_progress_open;
+static pthread_mutex_t progress_lock = PTHREAD_MUTEX_INITIALIZER;
+static int progress_open; /* under progress_lock: a bar without its newline */
+
+int cli_progress_lock(void)
+{
+    pthread_mutex_lock(&progress_lock);
+    if (!atomic_load(&interrupted))
+        return 1;
+    pthread_mutex_unlock(&progress_lock);
+    return 0;
+}
+
+void cli_progress_unlock(int line_open)
+{
+    progress_open = line_open;
+    pthread_mutex_unlock(&progress_lock);
+}
 
 static void say(const char *s)
 {
@@ -55,8 +71,12 @@ static void *signal_thread(void *arg)
         if (sigismember(&handled, sigs[i]) == 1)
             signal(sigs[i], SIG_DFL);
     pthread_sigmask(SIG_UNBLOCK, &handled, NULL);
-    if (atomic_exchange(&cli_progress_open, 0))
+    /* interrupted is set: a bar being drawn is finished, and no other starts */
+    pthread_mutex_lock(&progress_lock);
+    if (progress_open)
         say("\n");
+    progress_open = 0;
+    pthread_mutex_unlock(&progress_lock);
     cli_test_pause("interrupted");
     io_remove_temporaries();
     const char *name = sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "SIGHUP";

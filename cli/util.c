@@ -67,6 +67,8 @@ void cli_show_progress(void *user, double fraction)
     cli_progress_t *p = user;
     if (!p->shown && omp_get_wtime() - p->start < 1.0)
         return;
+    if (!cli_progress_lock())
+        return; /* a signal is ending the process: its message has the line */
     p->shown = 1;
     int frames = p->frames > 0 ? p->frames : 1;
     double total = (p->frame + fraction) / frames;
@@ -74,12 +76,10 @@ void cli_show_progress(void *user, double fraction)
     fprintf(stderr, "\r%s [%.*s%*s] %3d%%", p->label, full,
             "########################################", width - full, "",
             (int)(total * 100 + 0.5));
-    atomic_store(&cli_progress_open, 1);
-    if (total >= 1.0) {
+    if (total >= 1.0)
         fputc('\n', stderr);
-        atomic_store(&cli_progress_open, 0);
-    }
     fflush(stderr);
+    cli_progress_unlock(total < 1.0);
 }
 
 void cli_json_implicitize(FILE *f, const scene_t *s)

@@ -124,6 +124,11 @@ run 2 "--mesh /dev/full (no extension)" -- build "$SCENES/sphere.ini" --depth 4 
 run 2 "--vtu without value" -- build "$SCENES/sphere.ini" --depth 4 --vtu
 no_files "--mesh .stl" "$TMP/m.stl"
 
+# a crafted .vdb whose tree OpenVDB reads for 30 s of CPU (found by fuzzing): the
+# reader's CPU time is bounded by the file's size
+run 2 "info of a .vdb whose reader spins" -- info "$SRC/tests/fuzz/corpus/vdb/timeout-root-tiles-30s" &&
+    one_line_error "info of a .vdb whose reader spins" "did not finish in 5 s of CPU"
+
 # ---- write errors: exit 1, a clear message, no file left ---------------------------------------
 for opt in vtu htg vdb mesh; do
     case $opt in mesh) ext=ply ;; *) ext=$opt ;; esac

@@ -1,9 +1,9 @@
 /* ivoct export/ — the seam between export/ and its two modules (internal).
  *
  * Why modules: loading a large C++ library costs every process that links it
- * before main, in the dynamic loader's symbol relocations: libopenvdb ~60 ms,
- * VTK's ~17 ms, of the 89 ms `ivoct --version` took (measured in
- * export/README.md, "The modules"), although few commands use them.  So the
+ * before main, in the dynamic loader's symbol relocations: libopenvdb ~65 ms,
+ * VTK's ~17 ms, of the 94 ms `ivoct --version` took (docs/BENCHMARKS.md,
+ * "Start-up"), although few commands use them.  So the
  * files that include them are built as modules, opened (dlopen) by
  * module_load.cpp the first time they are needed:
  *   libivoct_openvdb.so  vdb.cpp: .vdb files, meshes, `ivoct info` of a .vdb;

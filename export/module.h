@@ -3,9 +3,9 @@
  * Why modules: loading a large C++ library costs every process that links it
  * before main, in the dynamic loader's symbol relocations: libopenvdb ~65 ms,
  * VTK's ~17 ms, of the 94 ms `ivoct --version` took (docs/BENCHMARKS.md,
- * "Start-up"), although few commands use them.  So the
- * files that include them are built as modules, opened (dlopen) by
- * module_load.cpp the first time they are needed:
+ * "Start-up"), although few commands use them.  So the files that include
+ * them are built as modules, opened (dlopen) by module_load.cpp the first
+ * time they are needed:
  *   libivoct_openvdb.so  vdb.cpp: .vdb files, meshes, `ivoct info` of a .vdb;
  *   libivoct_vtk.so      vtk.cpp, htg_xml.cpp: .htg files (VTK's number
  *                        formatting), .vtp meshes, `ivoct info` of VTK files.

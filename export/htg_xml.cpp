@@ -9,8 +9,8 @@
 // compressed-data header base64-encoded, then the compressed blocks
 // base64-encoded as one stream.  What this writer does
 // differently is only how: the blocks of an array are compressed by threads,
-// the base64 is encoded by threads into big buffers, and the output goes to
-// the file in a few large writes.
+// the base64 is encoded by threads a window at a time into the text buffer,
+// and the output goes to the file in a few large writes.
 //
 // Two layouts of the same trees (VTK's file format versions):
 //   2.0 (exp_htg): the trees in tree-index order, each breadth first; one
@@ -149,11 +149,14 @@ public:
 
     std::string &text() { return text_; }
 
+    int threads() const { return threads_; }
+    const char *path() const { return out_.path(); }
+
     // <DataArray ...> (or <Array ...> for strings) with its inline binary data:
     // vtkXMLWriter::WriteArrayInline.  NumberOfTuples is written when tuples is
     // not 0 (VTK's writers pass the count as a flag); ranges for data arrays.
     void array(int indent, const char *type, const std::string &name, size_t tuples,
-               const void *data, size_t bytes, const Range *range)
+               const Lz4Blocks &z, const Range *range)
     {
         const std::string pad((size_t)indent, ' ');
         const char *tag = range ? "DataArray" : "Array";
@@ -164,10 +167,16 @@ public:
         if (range)
             text_ += " RangeMin=\"" + num(range->lo) + "\" RangeMax=\"" + num(range->hi) + "\"";
         text_ += ">\n" + pad + "  ";
-        binary(static_cast<const unsigned char *>(data), bytes);
+        binary(z);
         text_ += "\n" + pad + "</" + tag + ">\n";
-        if (text_.size() > ((size_t)8 << 20))
+        if (text_.size() > FLUSH)
             flush();
+    }
+    // The same for `bytes` bytes held at data.
+    void array(int indent, const char *type, const std::string &name, size_t tuples,
+               const void *data, size_t bytes, const Range *range)
+    {
+        array(indent, type, name, tuples, lz4_blocks(data, bytes, threads_, out_.path()), range);
     }
 
     void commit()
@@ -177,47 +186,58 @@ public:
     }
 
 private:
+    static constexpr size_t FLUSH = (size_t)8 << 20;      // the text written out past this
+    static constexpr size_t WINDOW = 3 * ((size_t)1 << 20); // compressed bytes encoded at once
+    static constexpr size_t PIECE = 3 * ((size_t)1 << 16);  // a thread's share of a window
+
     void flush()
     {
         out_.write(text_.data(), text_.size());
         text_.clear();
     }
 
-    // The compressed data of n bytes: base64 of the header, base64 of the blocks.
-    void binary(const unsigned char *p, size_t n)
+    // n bytes as base64 at the end of the text: by threads, in pieces of a
+    // multiple of 3 bytes, when there are several
+    void encode(const unsigned char *p, size_t n)
     {
-        Lz4Blocks z = lz4_blocks(p, n, threads_, out_.path());
-        const size_t total = z.size;
-        const size_t hbytes = z.header_bytes();
-        size_t at = text_.size();
-        text_.resize(at + b64_size(hbytes));
-        b64_encode(reinterpret_cast<const unsigned char *>(z.header.data()), hbytes, &text_[at]);
-        const size_t size = b64_size(total);
-        if (size < ((size_t)1 << 20)) {
-            at = text_.size();
-            text_.resize(at + size);
-            b64_encode(reinterpret_cast<const unsigned char *>(z.data.get()), total, &text_[at]);
-            return;
-        }
-        // a big one: encoded by threads (pieces of a multiple of 3 bytes) into its
-        // own buffer, written after the text before it
-        HugeArray<char> enc = huge_array<char>(size);
-        const size_t piece = 3 * ((size_t)1 << 16);
-        const size_t pieces = (total + piece - 1) / piece;
-        parallel_chunks(pieces, 1, std::min(threads_, (int)std::min(pieces, (size_t)64)),
-                        [&](size_t k, size_t, int) {
-                            const size_t s = k * piece, m = std::min(piece, total - s);
-                            b64_encode(reinterpret_cast<const unsigned char *>(z.data.get()) + s, m,
-                                       enc.get() + s / 3 * 4);
-                        });
-        z.data.reset();
-        flush();
-        out_.write(enc.get(), size);
+        const size_t at = text_.size(), pieces = (n + PIECE - 1) / PIECE;
+        text_.resize(at + b64_size(n));
+        parallel_chunks(pieces, 1, std::min(threads_, (int)pieces), [&](size_t k, size_t, int) {
+            const size_t s = k * PIECE;
+            b64_encode(p + s, std::min(PIECE, n - s), &text_[at + s / 3 * 4]);
+        });
+        if (text_.size() > FLUSH)
+            flush();
+    }
+
+    // The compressed data: base64 of the header, then of the blocks as one stream,
+    // a window at a time (a multiple of 3 bytes, so that only the stream's end is
+    // padded): the blocks are read where lz4_blocks left them, and the window and
+    // the text are the same memory for every array.
+    void binary(const Lz4Blocks &z)
+    {
+        encode(reinterpret_cast<const unsigned char *>(z.header.data()), z.header_bytes());
+        if (!window_)
+            window_ = huge_array<unsigned char>(WINDOW);
+        size_t fill = 0;
+        z.each([&](const char *p, size_t n) {
+            while (n) {
+                const size_t k = std::min(n, WINDOW - fill);
+                std::memcpy(window_.get() + fill, p, k);
+                fill += k, p += k, n -= k;
+                if (fill == WINDOW) {
+                    encode(window_.get(), WINDOW);
+                    fill = 0;
+                }
+            }
+        });
+        encode(window_.get(), fill);
     }
 
     Output out_;
     int threads_;
     std::string text_;
+    HugeArray<unsigned char> window_;
 };
 
 // ---- the trees ----------------------------------------------------------------------

@@ -238,18 +238,30 @@ constexpr const char *VTK_BYTE_ORDER = "BigEndian";
 #error "the VTK XML writers need the host's byte order (__BYTE_ORDER__)"
 #endif
 
+// An array's compressed data: the header, and the blocks where the threads that
+// compressed them left them (each thread's blocks end to end in its own spool),
+// never copied together: each() gives them in order.
 struct Lz4Blocks {
     std::vector<uint64_t> header;  // the compressed-data header (host order)
-    HugeArray<char> data;          // the compressed blocks end to end
-    size_t size = 0;               // bytes in data
+    size_t size = 0;               // the blocks' bytes
+    std::vector<HugeArray<char>> spools;
+    std::vector<std::pair<int, size_t>> where;  // a block's spool and offset in it
     size_t header_bytes() const { return header.size() * sizeof(uint64_t); }
     size_t bytes() const { return header_bytes() + size; }
+    // f(p, n) for each block in order
+    template <class F> void each(F &&f) const
+    {
+        for (size_t b = 0; b < where.size(); b++)
+            f(spools[(size_t)where[b].first].get() + where[b].second, (size_t)header[3 + b]);
+    }
 };
 
 // The bytes [at, at + n) of an array (n <= LZ4_BLOCK, one block): a pointer into
 // the array, or into `scratch` (LZ4_BLOCK bytes, the calling thread's own) after
 // writing them there, for an array made block by block and never held whole.
-using BlockBytes = std::function<const void *(size_t at, size_t n, unsigned char *scratch)>;
+// worker: the calling thread's number, 0 to threads - 1 (for its own workspaces).
+using BlockBytes =
+    std::function<const void *(size_t at, size_t n, unsigned char *scratch, int worker)>;
 
 // The n bytes that bytes() gives, compressed by `threads` threads (one below
 // 8 blocks).  path: for the error message.

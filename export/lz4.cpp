@@ -53,9 +53,9 @@ Lz4Blocks lz4_blocks(size_t n, int threads, const BlockBytes &bytes, const char 
     if (nblocks < PARALLEL_BLOCKS)
         threads = 1;
     // each block compressed into the thread's scratch and appended to the thread's
-    // spool, then the blocks copied out in order: only the compressed bytes are
-    // ever touched (room for every block's bound, as large as the input, would be
-    // mapped whole on huge pages)
+    // spool, where the caller finds it (Lz4Blocks::each): only the compressed bytes
+    // are ever touched, once (room for every block's bound, as large as the input,
+    // would be mapped whole on huge pages; a copy end to end, as many fresh pages again)
     std::vector<std::unique_ptr<unsigned char[]>> scratch((size_t)threads);
     std::vector<std::unique_ptr<char[]>> packed((size_t)threads);
     for (int t = 0; t < threads; t++) {
@@ -67,24 +67,22 @@ Lz4Blocks lz4_blocks(size_t n, int threads, const BlockBytes &bytes, const char 
     std::vector<Spool> spools((size_t)threads);
     for (Spool &s : spools)
         s.first = nblocks * bound / (size_t)threads / 2 + 1;
-    std::vector<std::pair<int, size_t>> where(nblocks);  // a block's spool and offset in it
+    z.where.resize(nblocks);
     parallel_chunks(nblocks, 1, threads, [&](size_t b, size_t, int worker) {
         const size_t at = b * LZ4_BLOCK, size = std::min(LZ4_BLOCK, n - at);
-        const void *in = bytes(at, size, scratch[(size_t)worker].get());
+        const void *in = bytes(at, size, scratch[(size_t)worker].get(), worker);
         char *out = packed[(size_t)worker].get();
         const int cs = LZ4_compress_fast(static_cast<const char *>(in), out, (int)size,
                                          (int)bound, LZ4_ACCELERATION);
         if (cs <= 0)
             throw Error(std::string("cannot write ") + path + ": LZ4 failed");
         z.header[3 + b] = (uint64_t)cs;
-        where[b] = {worker, spools[(size_t)worker].append(out, (size_t)cs)};
+        z.where[b] = {worker, spools[(size_t)worker].append(out, (size_t)cs)};
     });
     for (size_t b = 0; b < nblocks; b++)
         z.size += z.header[3 + b];
-    z.data = huge_array<char>(z.size);
-    for (size_t b = 0, at = 0; b < nblocks; at += z.header[3 + b], b++)
-        std::memcpy(z.data.get() + at, spools[(size_t)where[b].first].data.get() + where[b].second,
-                    z.header[3 + b]);
+    for (Spool &s : spools)
+        z.spools.push_back(std::move(s.data));
     return z;
 }
 
@@ -92,7 +90,9 @@ Lz4Blocks lz4_blocks(const void *data, size_t n, int threads, const char *path)
 {
     const unsigned char *p = static_cast<const unsigned char *>(data);
     return lz4_blocks(n, threads,
-                      [p](size_t at, size_t, unsigned char *) -> const void * { return p + at; },
+                      [p](size_t at, size_t, unsigned char *, int) -> const void * {
+                          return p + at;
+                      },
                       path);
 }
 

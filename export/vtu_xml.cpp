@@ -496,7 +496,7 @@ Array made_array(const char *type, const char *name, int components, size_t coun
     Array a{attributes(type, name, components, 0), ranges, {}, {}};
     a.data = lz4_blocks(
         count * sizeof(T), threads,
-        [&](size_t at, size_t bytes, unsigned char *scratch) -> const void * {
+        [&](size_t at, size_t bytes, unsigned char *scratch, int) -> const void * {
             T *out = reinterpret_cast<T *>(scratch);
             const size_t k = bytes / sizeof(T);
             fill(at / sizeof(T), k, out);
@@ -646,7 +646,7 @@ void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *
     out.write(t.data(), t.size());
     auto data = [&](const Array &a) {
         out.write(a.data.header.data(), a.data.header_bytes());
-        out.write(a.data.data.get(), a.data.size);
+        a.data.each([&out](const char *p, size_t k) { out.write(p, k); });
     };
     for (const Array &a : field)
         data(a);

@@ -194,6 +194,12 @@ void cli_mpi_render_end(cli_mpi_render_t *r);
 int cli_mpi_finish(int rc);
 #endif
 
+/* ---- the allocator (allocator.c) ------------------------------------------------- */
+
+/* The malloc this program runs on, for --version: "jemalloc VERSION (thp: ..,
+ * arenas: ..)" in the release build, "the C library's malloc" otherwise. */
+const char *cli_allocator(void);
+
 /* ---- helpers (util.c) ------------------------------------------------------------ */
 
 /* Print "ivoct CMD: message (see 'ivoct CMD --help')" to stderr; returns EXIT_USAGE. */

@@ -56,8 +56,8 @@ int main(int argc, char **argv)
         return EXIT_USAGE;
     }
     if (!strcmp(cmd, "--version")) {
-        printf("ivoct %s\nSIMD path: %s (this build has: %s)\n", IVOCT_VERSION, tape_simd_name(),
-               tape_simd_paths());
+        printf("ivoct %s\nSIMD path: %s (this build has: %s)\nmalloc: %s\n", IVOCT_VERSION,
+               tape_simd_name(), tape_simd_paths(), cli_allocator());
         return EXIT_OK;
     }
     static const struct {

@@ -15,7 +15,10 @@
 
 #include <openvdb/openvdb.h>
 #include <openvdb/io/File.h>
-#include <openvdb/io/Stream.h>
+#include <openvdb/io/Archive.h>
+#include <openvdb/io/Compression.h>
+#include <openvdb/io/DelayedLoadMetadata.h>
+#include <openvdb/io/GridDescriptor.h>
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tools/VolumeToMesh.h>
 
@@ -74,47 +77,143 @@ protected:
     }
 };
 
-// A FloatGrid (sharing the tree, metadata and transform of another) whose leaf
-// buffers are written over threads.  Writing the buffers (Blosc/LZ4 of every
-// leaf node, one node after another) was most of OpenVDB's write, on one
-// thread.  Grid::writeBuffers writes LeafNode::writeBuffers of every leaf node
-// in the tree's order (a FloatGrid has no multi-pass I/O) and each depends only
-// on the node and the stream's compression flags and background: the same
-// calls here, each chunk of nodes into a string by a worker, with the flags
-// and background of the file's stream, then copied out in order, a window of
-// chunks at a time (the memory of a window, not of a grid) — the same bytes.
-class ThreadedWriteGrid final : public FloatGrid {
+// OpenVDB's Stream::write (io::Archive::write and writeGrid, OpenVDB 10) with
+// each leaf node compressed once, over threads.  Archive::writeGrid compresses
+// every leaf node (TBB) only to record its compressed size in the grid's
+// delayed-load metadata, which comes before the topology, and then again, on
+// one thread, as it writes the buffers.  Here the leaf nodes are written first
+// (LeafNode::writeBuffers, each into a worker's string, with the grid's
+// compression flags and background), the delayed-load metadata is read off
+// those bytes, and the metadata, transform, topology and buffers then go out
+// in Archive's order: the same file, byte for byte, but the UUID
+// (tests/check_export.py and bench/writers.sh --same-values compare it with
+// OpenVDB's own write).
+class VdbStream : public openvdb::io::Archive {
 public:
-    ThreadedWriteGrid(FloatGrid &g, int threads)
-        : FloatGrid(g, openvdb::ShallowCopy()), threads_(threads)
+    explicit VdbStream(int threads) : threads_(threads) {}
+
+    void write(std::ostream &os, const std::vector<FloatGrid::Ptr> &grids,
+               const openvdb::MetaMap &meta) const
     {
-    }
-    void writeBuffers(std::ostream &os) const override
-    {
-        std::vector<const Leaf *> leaves;
-        tree().getNodes(leaves);  // the order of Tree::writeBuffers: the tree's
-        const uint32_t compression = openvdb::io::getDataCompression(os);
-        const void *bg = openvdb::io::getGridBackgroundValuePtr(os);
-        const bool half = saveFloatAsHalf();
-        constexpr size_t chunk = 32, window = 32 * chunk;  // a window: at most ~2 MB
-        std::vector<StringBuf> bufs(window / chunk);
-        for (size_t w0 = 0; w0 < leaves.size() && os; w0 += window) {
-            const size_t n = std::min(window, leaves.size() - w0);
-            parallel_chunks(n, chunk, threads_, [&](size_t s, size_t e, int) {
-                StringBuf &b = bufs[s / chunk];
-                b.s.clear();
-                std::ostream o(&b);
-                openvdb::io::setDataCompression(o, compression);
-                openvdb::io::setGridBackgroundValuePtr(o, bg);
-                for (size_t i = s; i < e; i++)
-                    leaves[w0 + i]->writeBuffers(o, half);
-            });
-            for (size_t c = 0; c * chunk < n; c++)
-                os.write(bufs[c].s.data(), (std::streamsize)bufs[c].s.size());
+        namespace io = openvdb::io;
+        io::StreamMetadata::Ptr file_meta(new io::StreamMetadata);
+        io::setStreamMetadataPtr(os, file_meta, /*transfer=*/false);
+        io::setDataCompression(os, compression());
+        io::setWriteGridStatsMetadata(os, isGridStatsMetadataEnabled());
+        writeHeader(os, /*seekable=*/false);
+        meta.writeMeta(os);
+        const int32_t count = (int32_t)grids.size();
+        os.write(reinterpret_cast<const char *>(&count), sizeof count);
+        for (const FloatGrid::Ptr &g : grids) {
+            grid(os, *g);
+            // per-grid settings restored for the next, as Archive::write does
+            io::setStreamMetadataPtr(os, file_meta, /*transfer=*/false);
+            io::setDataCompression(os, compression());
         }
     }
 
 private:
+    // The per-leaf fields of the delayed-load metadata, from a leaf's bytes as
+    // LeafNode<float>::writeBuffers writes them (io::writeCompressedValues):
+    // the value mask (64 bytes), the mask-compression byte, the inactive values
+    // it calls for, the selection mask it calls for, then the data with its
+    // 8-byte size: what the metadata records is that last part's length.
+    static int64_t compressed_size(const char *p, size_t n, int8_t &mask_meta)
+    {
+        namespace io = openvdb::io;
+        constexpr size_t MASK = sizeof(Leaf::NodeMaskType);
+        mask_meta = static_cast<int8_t>(p[MASK]);
+        size_t head = MASK + 1;
+        if (mask_meta == io::NO_MASK_AND_ONE_INACTIVE_VAL || mask_meta == io::MASK_AND_ONE_INACTIVE_VAL)
+            head += sizeof(float);
+        if (mask_meta == io::MASK_AND_TWO_INACTIVE_VALS)
+            head += 2 * sizeof(float);
+        if (mask_meta == io::MASK_AND_NO_INACTIVE_VALS || mask_meta == io::MASK_AND_ONE_INACTIVE_VAL ||
+            mask_meta == io::MASK_AND_TWO_INACTIVE_VALS)
+            head += MASK;
+        if (n < head)
+            throw Error("the .vdb writer: a leaf node's bytes are shorter than their header");
+        return (int64_t)(n - head);
+    }
+
+    void grid(std::ostream &os, const FloatGrid &g) const
+    {
+        namespace io = openvdb::io;
+        if (g.saveFloatAsHalf())
+            throw Error("the .vdb writer: half floats are not written here");
+        // stream metadata varies per grid: a copy of the file's
+        io::StreamMetadata::Ptr grid_meta(new io::StreamMetadata(*io::getStreamMetadataPtr(os)));
+        grid_meta->setHalfFloat(false);
+        grid_meta->gridMetadata() = static_cast<const openvdb::MetaMap &>(g);
+        io::setStreamMetadataPtr(os, grid_meta, /*transfer=*/false);
+
+        if (g.getName().empty())  // Archive::write would number it
+            throw Error("the .vdb writer: a grid without a name");
+        io::GridDescriptor gd(g.getName(), g.type(), false);
+        gd.writeHeader(os);
+        gd.writeStreamPos(os);  // not seekable: no offsets
+        setGridCompression(os, g);
+        const uint32_t flags = io::getDataCompression(os);  // the grid's
+
+        // the leaf nodes, in Tree::writeBuffers' order, written by workers
+        std::vector<const Leaf *> leaves;
+        g.tree().getNodes(leaves);
+        const float bg = g.tree().background();
+        constexpr size_t chunk = 64;
+        std::vector<StringBuf> bufs((leaves.size() + chunk - 1) / chunk);
+        std::vector<uint32_t> bytes(leaves.size());
+        parallel_chunks(leaves.size(), chunk, threads_, [&](size_t s, size_t e, int) {
+            StringBuf &b = bufs[s / chunk];
+            std::ostream o(&b);
+            io::setDataCompression(o, flags);
+            io::setGridBackgroundValuePtr(o, &bg);
+            for (size_t i = s; i < e; i++) {
+                const size_t before = b.s.size();
+                leaves[i]->writeBuffers(o, false);
+                bytes[i] = (uint32_t)(b.s.size() - before);
+            }
+        });
+
+        // the grid's metadata as Archive::writeGrid makes it: the delayed-load
+        // metadata (Archive::compression()'s, as OpenVDB's populateDelayedLoadMetadata
+        // computes it) and the statistics
+        const openvdb::GridBase::Ptr copy = openvdb::ConstPtrCast<openvdb::GridBase>(g.copyGrid());
+        io::DelayedLoadMetadata dl;  // a grid without leaf nodes has it empty
+        if (!leaves.empty()) {
+            if (!(compression() & io::COMPRESS_ACTIVE_MASK))
+                throw Error("the .vdb writer: the mask compression byte is read off the leaves");
+            dl.resizeMask(leaves.size());
+            const bool sizes = compression() & (io::COMPRESS_BLOSC | io::COMPRESS_ZIP);
+            if (sizes)
+                dl.resizeCompressedSize(leaves.size());
+            size_t at = 0;
+            for (size_t i = 0; i < leaves.size(); i++) {
+                const std::string &b = bufs[i / chunk].s;
+                if (i % chunk == 0)
+                    at = 0;
+                int8_t mask_meta;
+                const int64_t size = compressed_size(b.data() + at, bytes[i], mask_meta);
+                dl.setMask(i, mask_meta);
+                if (sizes)
+                    dl.setCompressedSize(i, size);
+                at += bytes[i];
+            }
+        }
+        copy->insertMeta(openvdb::GridBase::META_FILE_DELAYED_LOAD, dl);
+        if (io::getWriteGridStatsMetadata(os)) {
+            copy->addStatsMetadata();
+            copy->insertMeta(openvdb::GridBase::META_FILE_COMPRESSION,
+                             openvdb::StringMetadata(io::compressionToString(flags)));
+        }
+        copy->writeMeta(os);
+        g.writeTransform(os);
+        g.writeTopology(os);
+        for (StringBuf &b : bufs) {
+            os.write(b.s.data(), (std::streamsize)b.s.size());
+            std::string().swap(b.s);
+        }
+    }
+
     int threads_;
 };
 
@@ -608,8 +707,7 @@ void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *s
     FloatGrid::Ptr sdf = sdf_grid(tree, tape, fr, surface);
     openvdb::MetaMap m = metadata(tree, src);
     const int threads = writer_threads(tree, (size_t)1 << 20);
-    openvdb::GridPtrVec grids{std::make_shared<ThreadedWriteGrid>(*surface, threads),
-                              std::make_shared<ThreadedWriteGrid>(*sdf, threads)};
+    const std::vector<FloatGrid::Ptr> grids{surface, sdf};
     for (auto &g : grids) {
         for (auto it = m.beginMeta(); it != m.endMeta(); ++it)
             g->insertMeta(it->first, *it->second);
@@ -617,7 +715,7 @@ void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *s
     Output out(path);
     FileBuf buf(out.file());
     std::ostream os(&buf);
-    openvdb::io::Stream(os).write(grids, m);
+    VdbStream(threads).write(os, grids, m);
     os.flush();
     if (!os)
         throw Error(std::string("cannot write ") + path + ": " +

@@ -92,7 +92,9 @@ class VdbStream : public openvdb::io::Archive {
 public:
     explicit VdbStream(int threads) : threads_(threads) {}
 
-    void write(std::ostream &os, const std::vector<FloatGrid::Ptr> &grids,
+    // Each grid is freed once written (the last reference: the caller's moved
+    // in), so that the next one's buffers and the file's pages reuse its memory.
+    void write(std::ostream &os, std::vector<FloatGrid::Ptr> grids,
                const openvdb::MetaMap &meta) const
     {
         namespace io = openvdb::io;
@@ -104,8 +106,9 @@ public:
         meta.writeMeta(os);
         const int32_t count = (int32_t)grids.size();
         os.write(reinterpret_cast<const char *>(&count), sizeof count);
-        for (const FloatGrid::Ptr &g : grids) {
+        for (FloatGrid::Ptr &g : grids) {
             grid(os, *g);
+            g.reset();
             // per-grid settings restored for the next, as Archive::write does
             io::setStreamMetadataPtr(os, file_meta, /*transfer=*/false);
             io::setDataCompression(os, compression());
@@ -707,7 +710,7 @@ void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *s
     FloatGrid::Ptr sdf = sdf_grid(tree, tape, fr, surface);
     openvdb::MetaMap m = metadata(tree, src);
     const int threads = writer_threads(tree, (size_t)1 << 20);
-    const std::vector<FloatGrid::Ptr> grids{surface, sdf};
+    std::vector<FloatGrid::Ptr> grids{std::move(surface), std::move(sdf)};
     for (auto &g : grids) {
         for (auto it = m.beginMeta(); it != m.endMeta(); ++it)
             g->insertMeta(it->first, *it->second);
@@ -715,7 +718,7 @@ void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *s
     Output out(path);
     FileBuf buf(out.file());
     std::ostream os(&buf);
-    VdbStream(threads).write(os, grids, m);
+    VdbStream(threads).write(os, std::move(grids), m);
     os.flush();
     if (!os)
         throw Error(std::string("cannot write ") + path + ": " +

@@ -94,7 +94,7 @@ public:
 
     // Each grid is freed once written (the last reference: the caller's moved
     // in), so that the next one's buffers and the file's pages reuse its memory.
-    void write(std::ostream &os, std::vector<FloatGrid::Ptr> grids,
+    void write_file(std::ostream &os, std::vector<FloatGrid::Ptr> grids,
                const openvdb::MetaMap &meta) const
     {
         namespace io = openvdb::io;
@@ -107,7 +107,7 @@ public:
         const int32_t count = (int32_t)grids.size();
         os.write(reinterpret_cast<const char *>(&count), sizeof count);
         for (FloatGrid::Ptr &g : grids) {
-            grid(os, *g);
+            write_grid(os, *g);
             g.reset();
             // per-grid settings restored for the next, as Archive::write does
             io::setStreamMetadataPtr(os, file_meta, /*transfer=*/false);
@@ -139,7 +139,7 @@ private:
         return (int64_t)(n - head);
     }
 
-    void grid(std::ostream &os, const FloatGrid &g) const
+    void write_grid(std::ostream &os, const FloatGrid &g) const
     {
         namespace io = openvdb::io;
         if (g.saveFloatAsHalf())
@@ -718,7 +718,7 @@ void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *s
     Output out(path);
     FileBuf buf(out.file());
     std::ostream os(&buf);
-    VdbStream(threads).write(os, std::move(grids), m);
+    VdbStream(threads).write_file(os, std::move(grids), m);
     os.flush();
     if (!os)
         throw Error(std::string("cannot write ") + path + ": " +

@@ -213,4 +213,31 @@ env IVOCT_OPENVDB_MODULE="$TMP/no-such-module.so" IVOCT_VTK_MODULE="$TMP/no-such
     "$BIN" build "$SCENES/sphere.ini" --depth 4 --quiet --vtu "$TMP/nomod.vtu" --cells "$TMP/nomod.csv" \
     >/dev/null 2>"$TMP/err" && ok || fail "--vtu --cells without the modules: $(cat "$TMP/err")"
 
+# ---- the .vdb written as OpenVDB's io::Stream writes it (export/vdb.cpp, VdbStream) ---------
+# the same bytes but the UUID (bytes 21-56: magic, versions, the offsets flag, then the
+# UUID's 36 characters), with the delayed-load metadata read off the compressed leaves:
+# shallow and deep trees, a box without surface, coarse leaves, 1 and 2 threads
+sed 's/^box .*/box = 2 3 2 3 2 3/' "$SCENES/sphere.ini" >"$TMP/nosurface.ini"
+same_vdb() {  # what, build arguments...
+    local what=$1
+    shift
+    if "$BIN" build "$@" --quiet --vdb "$TMP/ours.vdb" 2>"$TMP/err" &&
+        IVOCT_VDB_STREAM=openvdb "$BIN" build "$@" --quiet --vdb "$TMP/openvdb.vdb" 2>>"$TMP/err"; then
+        if cmp -s <(head -c 21 "$TMP/ours.vdb"; tail -c +58 "$TMP/ours.vdb") \
+            <(head -c 21 "$TMP/openvdb.vdb"; tail -c +58 "$TMP/openvdb.vdb"); then
+            ok
+        else
+            fail "$what: the .vdb differs from io::Stream's beyond the UUID"
+        fi
+    else
+        fail "$what: $(cat "$TMP/err")"
+    fi
+}
+for depth in 0 2 6; do
+    same_vdb "gumdrop depth $depth" "$SCENES/gumdrop.ini" --depth $depth
+done
+same_vdb "kusner-schmitt depth 5, 1 thread" "$SCENES/kusner-schmitt.ini" --depth 5 --threads 1
+same_vdb "a box without surface" "$TMP/nosurface.ini" --depth 4
+same_vdb "coarse leaves" "$SCENES/sphere.ini" --depth 7 --tests interval,ilie --refine 0.01
+
 cli_summary

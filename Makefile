@@ -59,7 +59,7 @@ fuzz: asan
 	for t in $(FUZZ_TARGETS); do \
 	    echo "== fuzz_$$t: $(FUZZ_TIME) s"; \
 	    env $(ASAN_ENV) IVOCT_SOURCE_DIR=$(CURDIR) IVOCT_BIN=$(ASAN_DIR)/cli/ivoct \
-	        IVOCT_FUZZ_WORK=$(FUZZ_WORK) bash tests/fuzz/run.sh run \
+	        IVOCT_FUZZ_WORK=$(FUZZ_WORK) nice bash tests/fuzz/run.sh run \
 	        $(ASAN_DIR)/tests/fuzz/fuzz_$$t $$t $(FUZZ_TIME) $(FUZZ_WORK)/$$t/corpus || status=1; \
 	done; \
 	exit $$status

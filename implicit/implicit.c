@@ -170,8 +170,10 @@ static int vanishes_quick(const imp_param_t *p, const fmpz_mpoly_t F, const fmpz
 
 /* The exact check: G(u, v) = F(Xn/Xd, Yn/Yd, Zn/Zd) Xd^dx Yd^dy Zd^dz is the
  * zero polynomial.  (The denominators are nonzero polynomials, so this is
- * F(X, Y, Z) = 0 as a rational function.)  Returns 1, 0, or IMP_EBUDGET when
- * the tables of powers pass the memory budget. */
+ * F(X, Y, Z) = 0 as a rational function.)  Returns 1 or 0; 0 with *budget_rc
+ * set (IMP_EBUDGET, IMP_ENOMEM) when it stopped: the budget is checked after
+ * every power of the tables and every term of F, each of which can take
+ * seconds on a large F. */
 static int vanishes_exact(const imp_param_t *p, const fmpz_mpoly_t F, const fmpz_mpoly_ctx_t ctx3,
                           const slong d[3], const imp_run_t *run, int *budget_rc)
 {
@@ -185,20 +187,23 @@ static int vanishes_exact(const imp_param_t *p, const fmpz_mpoly_t F, const fmpz
         for (int s = 0; s < 2 && ok; s++) {
             pw[k][s] = malloc(sizeof(fmpz_mpoly_struct) * (size_t)(d[k] + 1));
             if (pw[k][s] == NULL) {
+                ivoct_error_at(run->err, 0, 0, "implicitization by %s: out of memory in the exact check",
+                               run->what);
+                *budget_rc = IMP_ENOMEM;
                 ok = 0;
                 break;
             }
-            const fmpz_mpoly_struct *base = s ? p->den + k : p->num + k;
-            for (slong e = 0; e <= d[k]; e++) {
+            for (slong e = 0; e <= d[k]; e++)
                 fmpz_mpoly_init(pw[k][s] + e, ctx);
-                if (e == 0)
-                    fmpz_mpoly_one(pw[k][s], ctx);
-                else
-                    fmpz_mpoly_mul(pw[k][s] + e, pw[k][s] + e - 1, base, ctx);
+            const fmpz_mpoly_struct *base = s ? p->den + k : p->num + k;
+            fmpz_mpoly_one(pw[k][s], ctx);
+            for (slong e = 1; e <= d[k] && ok; e++) {
+                fmpz_mpoly_mul(pw[k][s] + e, pw[k][s] + e - 1, base, ctx);
                 bytes += imp_poly_bytes(pw[k][s] + e, ctx);
+                if ((*budget_rc = imp_run_time(run)) ||
+                    (*budget_rc = imp_run_bytes(run, bytes, "the powers of the exact check take")))
+                    ok = 0;
             }
-            if ((*budget_rc = imp_run_bytes(run, bytes, "the powers of the exact check take")))
-                ok = 0;
         }
     int zero = 0;
     if (ok) {
@@ -214,8 +219,12 @@ static int vanishes_exact(const imp_param_t *p, const fmpz_mpoly_t F, const fmpz
                 fmpz_mpoly_mul(t, t, pw[k][1] + (d[k] - (slong)e[k]), ctx);
             }
             fmpz_mpoly_add(g, g, t, ctx);
+            if ((*budget_rc = imp_run_time(run)) ||
+                (*budget_rc = imp_run_bytes(run, bytes + imp_poly_bytes(g, ctx) + imp_poly_bytes(t, ctx),
+                                            "the exact check takes")))
+                break;
         }
-        zero = fmpz_mpoly_is_zero(g, ctx);
+        zero = *budget_rc == 0 && fmpz_mpoly_is_zero(g, ctx);
         fmpz_mpoly_clear(g, ctx);
         fmpz_mpoly_clear(t, ctx);
     }

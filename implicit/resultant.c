@@ -171,14 +171,18 @@ static int prem(upoly_t *r, const upoly_t *a, const upoly_t *b, double live, con
         /* cancel the term of degree k: r = lc(b) r - r_k x^(k-n) b */
         fmpz_mpoly_swap(lead, r->c + k, ctx);
         fmpz_mpoly_zero(r->c + k, ctx);
-        for (slong i = 0; i < k; i++) {
+        /* the clock after each coefficient: with large coefficients one
+         * elimination is many products, seconds in all */
+        for (slong i = 0; i < k && rc == 0; i++) {
             fmpz_mpoly_mul(r->c + i, r->c + i, lb, ctx);
             if (i >= k - n && !fmpz_mpoly_is_zero(lead, ctx)) {
                 fmpz_mpoly_mul(t, lead, b->c + i - (k - n), ctx);
                 fmpz_mpoly_sub(r->c + i, r->c + i, t, ctx);
             }
+            rc = imp_run_time(run);
         }
-        rc = step_check(run, live, a, b, r, ctx);
+        if (rc == 0)
+            rc = step_check(run, live, a, b, r, ctx);
     }
     fmpz_mpoly_clear(lead, ctx);
     fmpz_mpoly_clear(t, ctx);
@@ -194,6 +198,30 @@ static int divide(fmpz_mpoly_t q, const fmpz_mpoly_t a, const fmpz_mpoly_t b, co
         return 0;
     }
     return fmpz_mpoly_divides(q, a, b, ctx) ? 0 : 1;
+}
+
+/* c = x^n / y^(n-1), n >= 1, by Lazard's steps c = c x / y (Ducos 2000, sec. 2):
+ * in the subresultant sequence each x^k / y^(k-1), k <= n, is a principal
+ * subresultant coefficient, so every division is exact and the intermediates
+ * stay the size of such coefficients, where x^n and y^(n-1) first would be about
+ * n times larger and their quotient one uninterruptible division of seconds.  The budget is checked
+ * after each step.  0, 1 (a division not exact: never, by the theory) or
+ * IMP_EBUDGET. */
+static int pow_quotient(fmpz_mpoly_t c, const fmpz_mpoly_t x, const fmpz_mpoly_t y, slong n,
+                        const fmpz_mpoly_ctx_t ctx, const imp_run_t *run)
+{
+    fmpz_mpoly_t t;
+    fmpz_mpoly_init(t, ctx);
+    fmpz_mpoly_set(t, x, ctx);
+    int rc = 0;
+    for (slong k = 1; k < n && rc == 0; k++) {
+        fmpz_mpoly_mul(t, t, x, ctx);
+        if ((rc = divide(t, t, y, ctx)) == 0)
+            rc = imp_run_time(run);
+    }
+    fmpz_mpoly_swap(c, t, ctx);
+    fmpz_mpoly_clear(t, ctx);
+    return rc;
 }
 
 /* R = Res_var(A, B) up to sign (the sign does not matter here): 0, 1 (could
@@ -213,11 +241,10 @@ static int subresultant(fmpz_mpoly_t R, const fmpz_mpoly_t A0, const fmpz_mpoly_
         A = B;
         B = t;
     }
-    fmpz_mpoly_t g, h, t, q;
+    fmpz_mpoly_t g, h, t;
     fmpz_mpoly_init(g, ctx);
     fmpz_mpoly_init(h, ctx);
     fmpz_mpoly_init(t, ctx);
-    fmpz_mpoly_init(q, ctx);
     fmpz_mpoly_one(g, ctx);
     fmpz_mpoly_one(h, ctx);
     if (B.len == 1) { /* Res(A, b) = b^deg A */
@@ -245,8 +272,8 @@ static int subresultant(fmpz_mpoly_t R, const fmpz_mpoly_t A0, const fmpz_mpoly_
         }
         fmpz_mpoly_mul(t, t, g, ctx);
         for (slong i = 0; i < B.len && rc == 0; i++)
-            if ((rc = divide(B.c + i, B.c + i, t, ctx)) == 0 && i % 8 == 7)
-                rc = step_check(run, live, &A, &B, &r, ctx);
+            if ((rc = divide(B.c + i, B.c + i, t, ctx)) == 0)
+                rc = i % 8 == 7 ? step_check(run, live, &A, &B, &r, ctx) : imp_run_time(run);
         if (rc)
             break;
         /* g = lc(A), h = h^(1 - delta) g^delta */
@@ -254,19 +281,14 @@ static int subresultant(fmpz_mpoly_t R, const fmpz_mpoly_t A0, const fmpz_mpoly_
         if (delta == 1)
             fmpz_mpoly_set(h, g, ctx);
         else if (delta > 1) {
-            if (!fmpz_mpoly_pow_ui(t, g, (ulong)delta, ctx) || !fmpz_mpoly_pow_ui(q, h, (ulong)(delta - 1), ctx) ||
-                divide(h, t, q, ctx)) {
-                rc = 1;
+            if ((rc = pow_quotient(t, g, h, delta, ctx, run)))
                 break;
-            }
+            fmpz_mpoly_swap(h, t, ctx);
         }
         if ((rc = step_check(run, live, &A, &B, &r, ctx)))
             break;
         if (B.len == 1) { /* R = lc(B)^deg A / h^(deg A - 1) */
-            slong d = A.len - 1;
-            if (!fmpz_mpoly_pow_ui(t, B.c + 0, (ulong)d, ctx) || !fmpz_mpoly_pow_ui(q, h, (ulong)(d - 1), ctx) ||
-                divide(R, t, q, ctx))
-                rc = 1;
+            rc = pow_quotient(R, B.c + 0, h, A.len - 1, ctx, run);
             break;
         }
     }
@@ -277,7 +299,6 @@ done:
     fmpz_mpoly_clear(g, ctx);
     fmpz_mpoly_clear(h, ctx);
     fmpz_mpoly_clear(t, ctx);
-    fmpz_mpoly_clear(q, ctx);
     return rc;
 }
 

@@ -78,7 +78,10 @@ run)
     vtk | vdb) export ASAN_OPTIONS=$ASAN_OPTIONS:symbolize=0 ;;
     esac
     echo "fuzz_$name: $seconds s from ${dirs[*]}; new inputs in $corpus"
-    exec nice "$fuzzer" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+    # Not nice'd: -timeout is wall time, and under ctest -j2 beside a test on both
+    # cores a nice'd fuzzer gets a tenth of a core, so that an input of one second
+    # would pass for a hang.  (make fuzz runs alone, and nice's the whole script.)
+    exec "$fuzzer" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
         -print_final_stats=1 -artifact_prefix="$work/" "${dict[@]}" "$corpus" "${dirs[@]}"
     ;;
 *)

@@ -203,10 +203,10 @@ static int divide(fmpz_mpoly_t q, const fmpz_mpoly_t a, const fmpz_mpoly_t b, co
 /* c = x^n / y^(n-1), n >= 1, by Lazard's steps c = c x / y (Ducos 2000, sec. 2):
  * in the subresultant sequence each x^k / y^(k-1), k <= n, is a principal
  * subresultant coefficient, so every division is exact and the intermediates
- * stay the size of such coefficients, where x^n and y^(n-1) first would be about
- * n times larger and their quotient one uninterruptible division of seconds.  The budget is checked
- * after each step.  0, 1 (a division not exact: never, by the theory) or
- * IMP_EBUDGET. */
+ * stay the size of such coefficients, where x^n and y^(n-1) first would be
+ * about n times larger and their quotient one uninterruptible division of
+ * seconds.  The budget is checked after each step.  0, 1 (a division not
+ * exact: never, by the theory) or IMP_EBUDGET. */
 static int pow_quotient(fmpz_mpoly_t c, const fmpz_mpoly_t x, const fmpz_mpoly_t y, slong n,
                         const fmpz_mpoly_ctx_t ctx, const imp_run_t *run)
 {

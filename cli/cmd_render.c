@@ -344,8 +344,9 @@ int cmd_render(int argc, char **argv)
                  "by default when it shortens the tapes; the image is the same)"},
         {.name = "--no-beams", .kind = CLI_FLAG, .target = &no_beams,
          .help = "walk the octree ray by ray, not first a tile's rays together\n"
-                 "as beams (which decide the rays that meet no surface leaf;\n"
-                 "the image and the files are the same)"},
+                 "as beams (which decide the rays that meet no surface leaf)\n"
+                 "and the others in packets of 8; the image and the files are\n"
+                 "the same"},
         {.name = "--method", .kind = CLI_CUSTOM, .target = &method, .parse = parse_method,
          .given = &method_given, .arg = "M",
          .help = "mitchell | newton | newton-ah | mrfro | mrfro-newton |\n"

@@ -33,4 +33,39 @@ void ray_beam_ws_free(ray_beam_ws_t *ws);
 int ray_beam_reaches(const oct_tree_t *tree, ray_beam_ws_t *ws, const double o[3],
                      const double dlo[3], const double dhi[3]);
 
+/* ---- packets: the rays of a beam walked through the octree together ----------------
+ * (traverse.c.)  Up to RAY_PACKET rays with one origin and the same signs of
+ * direction go down the tree as one walk: a cell is popped, and its children
+ * computed, once for all the rays that may meet it, each ray with its own
+ * plane crossings lane by lane.  Each ray is handed the very segments the
+ * per-ray walk (ray_octree_source) yields for it, bit for bit, in the same
+ * order, given the same t_max at each step: a ray's crossings of a plane are
+ * plane_t's, the cells are visited in the same depth-first order (children
+ * by k ^ mask, the mask common to the packet), and a cell is dropped for a
+ * ray by the same tests.  So a render is the same with packets as without. */
+#define RAY_PACKET 8
+
+typedef struct ray_packet_ws ray_packet_ws_t;
+ray_packet_ws_t *ray_packet_ws_new(const oct_tree_t *tree); /* NULL when out of memory */
+void ray_packet_ws_free(ray_packet_ws_t *ws);
+
+/* Can the ray o + t·d join a packet?  o and d finite, and every component of
+ * d of magnitude in [2^-1000, 2^1000] (the per-ray walk's reciprocal case;
+ * the others, an axis-parallel ray among them, walk alone).  *mask: bit a set
+ * when d_a < 0.  The rays of one packet share o and the mask. */
+int ray_packet_ray(const double o[3], const double d[3], unsigned *mask);
+
+/* Called for each segment of ray r, front to back as the per-ray walk yields
+ * them; it may lower t_max[r] (a hit), or set it to -inf to end the ray. */
+typedef void (*ray_packet_leaf_fn)(void *ctx, int r, const ray_segment_t *seg);
+
+/* Walk the n (1..RAY_PACKET) rays o + t·d[r], each accepted by ray_packet_ray
+ * with one mask, through os's tree.  t_max[r] is ray r's bound (a cell that
+ * starts at or after it is skipped for r), read afresh after every call of
+ * leaf.  *leaves counts the segments handed out (the per-ray walk's count).
+ * ws must come from ray_packet_ws_new for a tree of this depth. */
+void ray_packet_walk(const ray_octree_source_t *os, ray_packet_ws_t *ws, const double o[3],
+                     int n, const double (*d)[3], double t_max[], ray_packet_leaf_fn leaf,
+                     void *ctx, uint64_t *leaves);
+
 #endif

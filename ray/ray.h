@@ -357,9 +357,10 @@ typedef struct ray_render_opts {
     double light[3];
     /* With the octree source, the rays of a tile are first walked through the
      * tree together as beams (ray/README.md, "Beams"): a beam that reaches no
-     * surface leaf decides its rays as misses.  On by default (0); no_beams
-     * walks every ray alone.  The buffers and every counter but the beams'
-     * are the same either way.  Other sources have no beams. */
+     * surface leaf decides its rays as misses; the other rays, and the shadow
+     * rays, go down the tree in packets of 8 ("Packets").  On by default (0);
+     * no_beams walks every ray alone.  The buffers and every counter but the
+     * beams' are the same either way.  Other sources have no beams. */
     int no_beams;
     /* Called now and then with the fraction done, from one thread only; may be NULL. */
     void (*progress)(void *ctx, double fraction);

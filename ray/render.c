@@ -288,64 +288,178 @@ double ray_shadow_origin(const double eye[3], const double d[3], double t, doubl
  * time (ray_find_root_n: their first evaluations share a tape pass) — an
  * octree ray often crosses a run of surface leaves before the one that
  * holds the root.  Those after the one with the hit, if they start before
- * it, are searched again up to it. */
+ * it, are searched again up to it.
+ *
+ * A tracer is that search in progress, fed one segment at a time: trace()
+ * pulls the segments from a source, a packet walk (traverse.c) pushes them,
+ * and the searches are the same either way. */
 #define BATCH 2
+typedef struct tracer {
+    const tape_t *tape;
+    tape_ws_t *ws;
+    const ray_render_opts_t *opts;
+    const double *eye, *d;
+    int any;             /* the first hit found ends the search */
+    int stop;            /* it has */
+    double t_max;        /* the best hit so far */
+    int nq;              /* segments waiting */
+    ray_segment_t q[BATCH];
+    ray_result_t best;
+    counters_t *cnt;
+} tracer_t;
+
 /* The roots wanted are those before t_end (INFINITY for a primary ray, 1 for
  * a shadow ray: the light); with `any` the first hit found ends the search
  * (a shadow ray asks whether there is a root, not where the first one is). */
+static void tracer_init(tracer_t *tr, const tape_t *tape, tape_ws_t *ws,
+                        const ray_render_opts_t *opts, const double eye[3], const double d[3],
+                        double t_end, int any, counters_t *cnt)
+{
+    memset(tr, 0, sizeof *tr);
+    tr->tape = tape;
+    tr->ws = ws;
+    tr->opts = opts;
+    tr->eye = eye;
+    tr->d = d;
+    tr->any = any;
+    tr->t_max = t_end;
+    tr->best = (ray_result_t){RAY_MISS, NAN, NAN, NAN, 0, 0};
+    tr->cnt = cnt;
+}
+
+/* Search the leading segments waiting that share a tape (a batch shares one). */
+static void tracer_search(tracer_t *tr)
+{
+    ray_segment_t *q = tr->q;
+    int k = 1;
+    while (k < tr->nq && q[k].tape == q[0].tape)
+        k++;
+    double t0[BATCH], t1[BATCH];
+    for (int j = 0; j < k; j++) {
+        t0[j] = q[j].t_in;
+        t1[j] = q[j].t_out < tr->t_max ? q[j].t_out : tr->t_max;
+    }
+    ray_result_t r;
+    int which;
+    tr->cnt->segments += (uint64_t)k;
+    ray_find_root_n(q[0].tape ? q[0].tape : tr->tape, tr->ws, tr->opts->method,
+                    &tr->opts->roots, tr->eye, tr->d, k, t0, t1, &r, &which);
+    tr->cnt->evals += r.evals;
+    int done = k;
+    if (r.kind != RAY_MISS && (tr->best.kind == RAY_MISS || r.t < tr->best.t)) {
+        /* the first root is at or after the smaller bracket start */
+        if (tr->best.kind != RAY_MISS && tr->best.t_lo < r.t_lo)
+            r.t_lo = tr->best.t_lo;
+        tr->best = r;
+        tr->t_max = r.t;
+        done = which + 1; /* those after it: searched again, up to the hit */
+        if (tr->any) {
+            tr->stop = 1;
+            return;
+        }
+    }
+    /* keep what is left of the batch and was not searched, if it can still
+     * start before the best hit */
+    int m = 0;
+    for (int j = done; j < tr->nq; j++)
+        if (q[j].t_in < tr->t_max)
+            q[m++] = q[j];
+    tr->nq = m;
+}
+
+/* The next segment of the ray, front to back: searched once BATCH wait. */
+static void tracer_offer(tracer_t *tr, const ray_segment_t *seg)
+{
+    if (tr->stop || !(seg->t_in < tr->t_max))
+        return;
+    tr->q[tr->nq++] = *seg;
+    while (tr->nq == BATCH && !tr->stop)
+        tracer_search(tr);
+}
+
+/* No segment is left: search those waiting. */
+static void tracer_finish(tracer_t *tr)
+{
+    while (tr->nq > 0 && !tr->stop)
+        tracer_search(tr);
+}
+
 static void trace(const tape_t *tape, tape_ws_t *ws, const ray_source_t *src, void *state,
                   const ray_render_opts_t *opts, const double eye[3], const double d[3],
                   double t_end, int any, ray_result_t *best, counters_t *cnt)
 {
-    ray_segment_t seg, q[BATCH];
-    int nq = 0, more = 1;
-    double t_max = t_end; /* the best hit so far */
+    tracer_t tr;
+    tracer_init(&tr, tape, ws, opts, eye, d, t_end, any, cnt);
+    ray_segment_t seg;
     src->begin(src->ctx, state, eye, d);
-    for (;;) {
-        while (more && nq < BATCH) {
-            seg.t_max = t_max;
-            if (!src->next(src->ctx, state, &seg, &cnt->leaves)) {
-                more = 0;
-                break;
-            }
-            if (seg.t_in < t_max)
-                q[nq++] = seg;
-        }
-        if (nq == 0)
+    while (!tr.stop) {
+        seg.t_max = tr.t_max;
+        if (!src->next(src->ctx, state, &seg, &cnt->leaves))
             break;
-        /* a batch shares one tape */
-        int k = 1;
-        while (k < nq && q[k].tape == q[0].tape)
-            k++;
-        double t0[BATCH], t1[BATCH];
-        for (int j = 0; j < k; j++) {
-            t0[j] = q[j].t_in;
-            t1[j] = q[j].t_out < t_max ? q[j].t_out : t_max;
+        tracer_offer(&tr, &seg);
+    }
+    tracer_finish(&tr);
+    *best = tr.best;
+}
+
+/* ---- packets --------------------------------------------------------------------------
+ * Rays from one origin that the octree source would walk one by one go down
+ * the tree in packets of one sign of direction (ray_packet_walk), each ray's
+ * tracer fed the segments its own walk would have yielded; a ray that cannot
+ * join one (ray_packet_ray) walks alone.  The hits are those of trace(). */
+typedef struct packet {
+    tracer_t tr[RAY_PACKET];
+    double t_max[RAY_PACKET];
+} packet_t;
+
+static void packet_leaf(void *ctx, int r, const ray_segment_t *seg)
+{
+    packet_t *p = ctx;
+    tracer_offer(&p->tr[r], seg);
+    p->t_max[r] = p->tr[r].stop ? -INFINITY : p->tr[r].t_max;
+}
+
+/* The rays o + t·dir[j], t < t_end, j < n (at most TILE * TILE), each to
+ * res[j]: with pw, packets of up to RAY_PACKET rays of one mask, taken in
+ * the order of the list (a ray joins the first packet of its mask started
+ * within the next 2 RAY_PACKET rays); without, trace() one by one.  Order
+ * the list so that neighbours are near each other. */
+static void trace_rays(const tape_t *tape, tape_ws_t *ws, const ray_source_t *src, void *state,
+                       const ray_octree_source_t *os, ray_packet_ws_t *pw,
+                       const ray_render_opts_t *opts, const double o[3], int n,
+                       const double **dir, double t_end, int any, ray_result_t **res,
+                       counters_t *cnt)
+{
+    enum { DONE = 8 }; /* not a mask: the ray walked alone, or is in a packet */
+    unsigned char mask[TILE * TILE];
+    for (int j = 0; j < n; j++) {
+        unsigned m;
+        mask[j] = pw && ray_packet_ray(o, dir[j], &m) ? (unsigned char)m : DONE;
+        if (mask[j] == DONE)
+            trace(tape, ws, src, state, opts, o, dir[j], t_end, any, res[j], cnt);
+    }
+    for (int j = 0; j < n; j++) {
+        if (mask[j] == DONE)
+            continue;
+        packet_t p;
+        double d[RAY_PACKET][3];
+        int at[RAY_PACKET], m = 0;
+        const unsigned char mj = mask[j];
+        for (int i = j; i < n && i < j + 2 * RAY_PACKET && m < RAY_PACKET; i++) {
+            if (mask[i] != mj)
+                continue;
+            memcpy(d[m], dir[i], sizeof d[m]);
+            tracer_init(&p.tr[m], tape, ws, opts, o, dir[i], t_end, any, cnt);
+            p.t_max[m] = t_end;
+            at[m++] = i;
+            mask[i] = DONE;
         }
-        ray_result_t r;
-        int which;
-        cnt->segments += (uint64_t)k;
-        ray_find_root_n(q[0].tape ? q[0].tape : tape, ws, opts->method, &opts->roots, eye, d, k,
-                        t0, t1, &r, &which);
-        cnt->evals += r.evals;
-        int done = k;
-        if (r.kind != RAY_MISS && (best->kind == RAY_MISS || r.t < best->t)) {
-            /* the first root is at or after the smaller bracket start */
-            if (best->kind != RAY_MISS && best->t_lo < r.t_lo)
-                r.t_lo = best->t_lo;
-            *best = r;
-            t_max = r.t;
-            done = which + 1; /* those after it: searched again, up to the hit */
-            if (any)
-                break;
+        ray_packet_walk(os, pw, o, m, (const double(*)[3])d, p.t_max, packet_leaf, &p,
+                        &cnt->leaves);
+        for (int i = 0; i < m; i++) {
+            tracer_finish(&p.tr[i]);
+            *res[at[i]] = p.tr[i].best;
         }
-        /* keep what is left of the batch and was not searched, if it can
-         * still start before the best hit */
-        int m = 0;
-        for (int j = done; j < nq; j++)
-            if (q[j].t_in < t_max)
-                q[m++] = q[j];
-        nq = m;
     }
 }
 
@@ -391,11 +505,18 @@ static void beam_rect(const oct_tree_t *tree, ray_beam_ws_t *bw, const ray_camer
                           decided, cnt);
 }
 
-/* bw: the beams' workspace, NULL for no beams (tree is then not used). */
+/* The primary rays go to the packets by blocks of pixels, one packet each. */
+#define PACKET_W 4
+#define PACKET_H 2
+_Static_assert(PACKET_W * PACKET_H == RAY_PACKET, "a block of pixels is a packet");
+
+/* bw: the beams' workspace, NULL for no beams (tree is then not used); pw
+ * the packets', with os the octree source, used with beams. */
 static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *cam,
                         const ray_source_t *src, void *state, const oct_tree_t *tree,
-                        ray_beam_ws_t *bw, const ray_render_opts_t *opts, ray_image_t *img,
-                        int tx, int ty, counters_t *cnt)
+                        ray_beam_ws_t *bw, const ray_octree_source_t *os, ray_packet_ws_t *pw,
+                        const ray_render_opts_t *opts, ray_image_t *img, int tx, int ty,
+                        counters_t *cnt)
 {
     const int W = img->width, H = img->height;
     int c0, r0, c1, r1;
@@ -408,18 +529,33 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
     for (int row = r0; row < r1; row++)
         for (int col = c0; col < c1; col++)
             ray_camera_dir(cam, col, row, img->dir + 3 * ((size_t)row * W + col));
+    /* a decided ray: the per-ray walk would yield no segment, and trace
+     * would leave its result a miss without counting anything.  The others
+     * in blocks of PACKET_W x PACKET_H pixels, a packet's worth. */
     if (bw)
         beam_rect(tree, bw, cam, img, c0, r0, c0, r0, c1, r1, decided, cnt);
+    ray_result_t res[TILE * TILE], *to[TILE * TILE];
+    const double *dirs[TILE * TILE];
+    int nt = 0;
+    for (int br = r0; br < r1; br += PACKET_H)
+        for (int bc = c0; bc < c1; bc += PACKET_W)
+            for (int row = br; row < br + PACKET_H && row < r1; row++)
+                for (int col = bc; col < bc + PACKET_W && col < c1; col++) {
+                    int k = (row - r0) * TILE + (col - c0);
+                    res[k] = (ray_result_t){RAY_MISS, NAN, NAN, NAN, 0, 0};
+                    if (decided[k])
+                        continue;
+                    dirs[nt] = img->dir + 3 * ((size_t)row * W + col);
+                    to[nt++] = &res[k];
+                }
+    trace_rays(tape, ws, src, state, os, bw ? pw : NULL, opts, cam->eye, nt, dirs, INFINITY, 0,
+               to, cnt);
 
     for (int row = r0; row < r1; row++)
         for (int col = c0; col < c1; col++) {
             size_t i = (size_t)row * W + col;
             double *d = img->dir + 3 * i;
-            ray_result_t best = {RAY_MISS, NAN, NAN, NAN, 0, 0};
-            /* a decided ray: the per-ray walk would yield no segment, and
-             * trace would leave best a miss without counting anything */
-            if (!decided[(row - r0) * TILE + (col - c0)])
-                trace(tape, ws, src, state, opts, cam->eye, d, INFINITY, 0, &best, cnt);
+            ray_result_t best = res[(row - r0) * TILE + (col - c0)];
             img->t[i] = best.t;
             img->kind[i] = (unsigned char)best.kind;
             img->hit[i] = best.kind != RAY_MISS;
@@ -465,50 +601,66 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
      * be far finer, and the searches there needlessly long) */
     ray_render_opts_t shadow_opts = *opts;
     shadow_opts.roots.any_root = 1; /* a root proven on the way is enough */
-    for (int k = 0; k < nh && opts->light_on; k++) {
-        size_t i = hits[k];
-        double q[3], ds[3];
-        unsigned char sh = RAY_SHADOW_UNDECIDED;
-        cnt->shadow_rays++;
-        if (ray_shadow_origin(cam->eye, img->dir + 3 * i, img->t[i], q) < t_lo[k]) {
+    if (opts->light_on) {
+        counters_t sc = {0}; /* the shadow rays' counts */
+        double ds[TILE * TILE][3];
+        ray_result_t sr[TILE * TILE], *to[TILE * TILE];
+        const double *dirs[TILE * TILE];
+        unsigned char placed[TILE * TILE];
+        int nw = 0; /* the hits whose whole shadow ray is searched */
+        for (int k = 0; k < nh; k++) {
+            size_t i = hits[k];
+            double q[3];
+            placed[k] = ray_shadow_origin(cam->eye, img->dir + 3 * i, img->t[i], q) < t_lo[k];
+            if (!placed[k])
+                continue;
             double len = 0;
             for (int a = 0; a < 3; a++) {
-                ds[a] = q[a] - opts->light[a];
-                len += ds[a] * ds[a];
+                ds[k][a] = q[a] - opts->light[a];
+                len += ds[k][a] * ds[k][a];
             }
             len = sqrt(len);
-            ray_result_t sr = {RAY_MISS, NAN, NAN, NAN, 0, 0};
-            counters_t sc = {0};
+            sr[k] = (ray_result_t){RAY_MISS, NAN, NAN, NAN, 0, 0};
             /* The light behind the surface as the eye sees it (by the
              * normal, an estimate that only picks the order): an attached
              * shadow, most likely.  First the piece of the shadow ray just
              * before q, 2^-16 t long, from p0 = ray_point(light, ds, 1 - w):
              * a root proven there settles the pixel without the walk from
-             * the light.  Else (and for every other hit) the whole ray. */
+             * the light.  Else (and for every other hit) the whole ray,
+             * all of them from the light, in packets with beams. */
             const double *n = img->normal + 3 * i, *p = img->point + 3 * i;
             double to_light[3] = {opts->light[0] - p[0], opts->light[1] - p[1],
                                   opts->light[2] - p[2]};
             double w = 0x1p-16 * img->t[i] / len;
             if (dot3(n, to_light) * dot3(n, img->dir + 3 * i) > 0 && w < 0.5) {
                 double p0[3];
-                ray_point(opts->light, ds, 1 - w, p0);
-                trace(tape, ws, src, state, &shadow_opts, p0, ds, w, 1, &sr, &sc);
-                if (sr.kind != RAY_HIT_ROOT)
-                    sr.kind = RAY_MISS;
+                ray_point(opts->light, ds[k], 1 - w, p0);
+                trace(tape, ws, src, state, &shadow_opts, p0, ds[k], w, 1, &sr[k], &sc);
+                if (sr[k].kind != RAY_HIT_ROOT)
+                    sr[k].kind = RAY_MISS;
             }
-            if (sr.kind != RAY_HIT_ROOT)
-                trace(tape, ws, src, state, &shadow_opts, opts->light, ds, 1.0, 1, &sr, &sc);
-            sh = sr.kind == RAY_MISS       ? RAY_LIT
-                 : sr.kind == RAY_HIT_ROOT ? RAY_SHADOWED
-                                           : RAY_SHADOW_UNDECIDED;
-            cnt->evals += sc.evals;
-            cnt->shadow_evals += sc.evals;
-            cnt->segments += sc.segments;
-            cnt->leaves += sc.leaves;
+            if (sr[k].kind != RAY_HIT_ROOT) {
+                dirs[nw] = ds[k];
+                to[nw++] = &sr[k];
+            }
         }
-        img->shadow[i] = sh;
-        cnt->shadowed += sh == RAY_SHADOWED;
-        cnt->shadow_undecided += sh == RAY_SHADOW_UNDECIDED;
+        trace_rays(tape, ws, src, state, os, bw ? pw : NULL, &shadow_opts, opts->light, nw, dirs,
+                   1.0, 1, to, &sc);
+        for (int k = 0; k < nh; k++) {
+            size_t i = hits[k];
+            unsigned char sh = !placed[k]                ? RAY_SHADOW_UNDECIDED
+                               : sr[k].kind == RAY_MISS     ? RAY_LIT
+                               : sr[k].kind == RAY_HIT_ROOT ? RAY_SHADOWED
+                                                            : RAY_SHADOW_UNDECIDED;
+            img->shadow[i] = sh;
+            cnt->shadow_rays++;
+            cnt->shadowed += sh == RAY_SHADOWED;
+            cnt->shadow_undecided += sh == RAY_SHADOW_UNDECIDED;
+        }
+        cnt->evals += sc.evals;
+        cnt->shadow_evals += sc.evals;
+        cnt->segments += sc.segments;
+        cnt->leaves += sc.leaves;
     }
 
     for (int k = 0; k < nh; k++) {
@@ -578,7 +730,8 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
         tape_ws_t *ws = tape_ws_new(tape->n);
         void *state = malloc(src->state_size ? src->state_size : 1);
         ray_beam_ws_t *bw = tree ? ray_beam_ws_new(tree) : NULL;
-        int ok = ws && state && (bw || !tree);
+        ray_packet_ws_t *pw = tree ? ray_packet_ws_new(tree) : NULL;
+        int ok = ws && state && ((bw && pw) || !tree);
         if (!ok) {
 #pragma omp atomic write
             failed = 1;
@@ -591,7 +744,7 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
             if (!ok || !in_part(tx, ty, part, parts))
                 continue;
             counters_t cnt = {0};
-            render_tile(tape, ws, cam, src, state, tree, bw, opts, img, tx, ty, &cnt);
+            render_tile(tape, ws, cam, src, state, tree, bw, os, pw, opts, img, tx, ty, &cnt);
             hits += cnt.hits;
             tangent += cnt.tangent;
             evals += cnt.evals;
@@ -609,6 +762,7 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
             if (opts->progress && omp_get_thread_num() == 0)
                 opts->progress(opts->progress_ctx, (double)now / (double)mine);
         }
+        ray_packet_ws_free(pw);
         ray_beam_ws_free(bw);
         free(state);
         tape_ws_free(ws);

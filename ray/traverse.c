@@ -19,9 +19,10 @@
  * surface in the tree's box lies in a surface leaf. */
 #include <math.h>
 #include <stddef.h>
+#include <stdlib.h>
 #include <string.h>
 
-#include "beam_internal.h"
+#include "packet_internal.h"
 
 /* A cell waiting on the stack.  r[a] = [entry, exit] parameters of the ray on
  * axis a (the lower bound of the crossing of the near plane, the upper bound
@@ -285,6 +286,106 @@ static int trav_next(const void *ctx, void *state, ray_segment_t *seg, uint64_t 
         }
     }
     return 0;
+}
+
+/* ---- packets (beam_internal.h; the walk itself: packet_kernels.h) ------------------- */
+
+struct ray_packet_ws {
+    int cap;
+    pcell_t stack[];
+};
+
+ray_packet_ws_t *ray_packet_ws_new(const oct_tree_t *tree)
+{
+    int depth = tree && tree->depth > 0 && tree->depth <= OCT_MAX_DEPTH ? tree->depth : 0;
+    ray_packet_ws_t *ws = malloc(sizeof *ws + (size_t)stack_cap(depth) * sizeof(pcell_t));
+    if (ws)
+        ws->cap = stack_cap(depth);
+    return ws;
+}
+
+void ray_packet_ws_free(ray_packet_ws_t *ws) { free(ws); }
+
+int ray_packet_ray(const double o[3], const double d[3], unsigned *mask)
+{
+    *mask = 0;
+    for (int a = 0; a < 3; a++) {
+        /* trav_begin's reciprocal case: 2^-1000 <= |d_a| <= 2^1000 */
+        if (!isfinite(o[a]) || !(fabs(d[a]) >= 0x1p-1000 && fabs(d[a]) <= 0x1p1000))
+            return 0;
+        if (d[a] < 0)
+            *mask |= 1u << a;
+    }
+    return 1;
+}
+
+/* The walk of the SIMD path in use (expr/'s choice, tape_simd_name). */
+static packet_walk_fn packet_walk_in_use(void)
+{
+#ifdef IVOCT_SIMD_X86
+    const char *name = tape_simd_name();
+    if (!strcmp(name, "avx512"))
+        return packet_walk_avx512;
+    if (!strcmp(name, "avx2"))
+        return packet_walk_avx2;
+#endif
+    return packet_walk_portable;
+}
+
+typedef struct packet_ctx {
+    const ray_octree_source_t *os;
+    const double *o;
+    const double (*d)[3];
+    double *t_max;
+    ray_packet_leaf_fn leaf;
+    void *ctx;
+    uint64_t *leaves;
+} packet_ctx_t;
+
+/* Ray r meets leaf li over [lo, hi], lo < t_max[r]: trav_next's leaf. */
+static double packet_leaf(void *ctx, uint32_t li, int r, double lo, double hi)
+{
+    const packet_ctx_t *pc = ctx;
+    const ray_octree_source_t *os = pc->os;
+    const oct_tree_t *tree = os->tree;
+    if (os->use_slabs && oct_leaf_has_slab(tree, li) &&
+        !slab_narrow(&tree->slabs[li], pc->o, pc->d[r], &lo, &hi))
+        return pc->t_max[r];
+    if (!(lo < pc->t_max[r]))
+        return pc->t_max[r];
+    ray_segment_t seg = {lo, hi, NULL, pc->t_max[r], li};
+    seg.tape = os->tapes && li < os->tapes->n_leaves ? os->tapes->of_leaf[li] : NULL;
+    if (pc->leaves)
+        ++*pc->leaves;
+    pc->leaf(pc->ctx, r, &seg);
+    return pc->t_max[r];
+}
+
+void ray_packet_walk(const ray_octree_source_t *os, ray_packet_ws_t *ws, const double o[3],
+                     int n, const double (*d)[3], double t_max[], ray_packet_leaf_fn leaf,
+                     void *ctx, uint64_t *leaves)
+{
+    const oct_tree_t *tree = os->tree;
+    if (!tree || !tree->n_nodes || tree->depth < 0 || tree->depth > OCT_MAX_DEPTH || n < 1 ||
+        n > PK)
+        return;
+    packet_ctx_t pc = {os, o, d, t_max, leaf, ctx, leaves};
+    packet_rays_t p = {.tree = tree, .n = n, .leaf = packet_leaf, .ctx = &pc,
+                       .stack = ws->stack, .cap = ws->cap};
+    for (int a = 0; a < 3; a++) {
+        p.o[a] = o[a];
+        p.neg[a] = d[0][a] < 0;
+        p.mask |= (unsigned)p.neg[a] << a;
+        /* trav_begin's enclosure of 1/d; the lanes past n copy ray 0 */
+        for (int r = 0; r < PK; r++) {
+            double inv = 1.0 / d[r < n ? r : 0][a];
+            p.inv_lo[a][r] = iv_down(inv);
+            p.inv_hi[a][r] = iv_up(inv);
+        }
+    }
+    for (int r = 0; r < PK; r++)
+        p.t_max[r] = r < n ? t_max[r] : -INFINITY;
+    packet_walk_in_use()(&p);
 }
 
 ray_source_t ray_octree_source(ray_octree_source_t *os, const oct_tree_t *tree)

@@ -9,6 +9,10 @@
  *    changes sign, some exactly axis-parallel), every ray of the beam and the
  *    corners of its box walked alone by the octree source: when the beam
  *    reaches no surface leaf, no ray may get a single segment;
+ *  - the packet walk against the per-ray walk: random packets of rays from one
+ *    origin, through trees with and without slabs and leaf tapes, on every
+ *    SIMD path; each ray's segments (bits, leaf, tape, order) as its own walk
+ *    yields them, with t_max lowered and rays stopped along the way;
  *  - beams and --no-beams (ray_render_opts_t.no_beams) on the eight
  *    comparison surfaces and the 64-sphere CSG union, every method: every
  *    buffer identical (memcmp: t point normal dir hit kind shadow rgb), and
@@ -31,7 +35,7 @@
 
 #include <cmocka.h>
 
-#include "../ray/beam_internal.h" /* the beam walk itself: the first test */
+#include "../ray/beam_internal.h" /* the beam and packet walks themselves: the first tests */
 #include "../ray/ray.h"
 #include "support/testutil.h"
 
@@ -47,6 +51,15 @@ static uint64_t ray_leaves(const ray_source_t *src, void *state, const double o[
     while (src->next(src->ctx, state, &seg, &leaves))
         seg.t_max = INFINITY;
     return leaves;
+}
+
+/* The centre and the half widths of a box. */
+static void centre_half(const double box[6], double c[3], double h[3])
+{
+    for (int a = 0; a < 3; a++) {
+        c[a] = 0.5 * box[2 * a] + 0.5 * box[2 * a + 1];
+        h[a] = 0.5 * (box[2 * a + 1] - box[2 * a]);
+    }
 }
 
 static void unit(double d[3])
@@ -79,10 +92,7 @@ static void test_beam_walk(void **state)
         assert_non_null(st);
         assert_non_null(bw);
         double c[3], h[3];
-        for (int a = 0; a < 3; a++) {
-            c[a] = 0.5 * s.box[2 * a] + 0.5 * s.box[2 * a + 1];
-            h[a] = 0.5 * (s.box[2 * a + 1] - s.box[2 * a]);
-        }
+        centre_half(s.box, c, h);
         for (int b = 0; b < n_beams; b++) {
             int kind = b % 4; /* 0, 1 outside, 2 inside the box, 3 axis-parallel */
             double o[3], axis[3], d[16][3];
@@ -145,6 +155,189 @@ static void test_beam_walk(void **state)
         scene_free(&s);
     }
     assert_true(decided_through_box > 10 && reached > 10);
+}
+
+/* ---- the packet walk against the per-ray walk -------------------------------------- */
+
+/* A consumer of one ray's segments, as the renderer is: after each segment it
+ * may lower t_max (a hit: to a point of the segment) or stop the ray, decided
+ * by the ray's own random stream, so the per-ray and the packet walks see the
+ * same decisions at the same segments. */
+typedef struct consumer {
+    uint64_t rng;
+    double t_max;
+    int n, cap, stopped;
+    ray_segment_t seg[256];
+} consumer_t;
+
+/* After a segment: 1 to go on, 0 when the ray stops. */
+static int consume(consumer_t *c, const ray_segment_t *s)
+{
+    if (c->n >= c->cap)
+        fail_msg("a ray got more than %d segments", c->cap);
+    c->seg[c->n++] = *s;
+    uint64_t u = tu_next(&c->rng) % 8;
+    if (u == 0) {
+        c->stopped = 1;
+        return 0;
+    }
+    if (u <= 2) {
+        double v = s->t_in + (s->t_out - s->t_in) * (u == 1 ? 0.25 : 1.0);
+        if (v < c->t_max)
+            c->t_max = v;
+    }
+    return 1;
+}
+
+typedef struct packet_check {
+    consumer_t *c;
+    double *t_max;
+} packet_check_t;
+
+static void packet_seg(void *ctx, int r, const ray_segment_t *seg)
+{
+    packet_check_t *pc = ctx;
+    if (seg->t_max != pc->t_max[r])
+        fail_msg("ray %d: the segment carries t_max %a, the walk was given %a", r, seg->t_max,
+                 pc->t_max[r]);
+    pc->t_max[r] = consume(&pc->c[r], seg) ? pc->c[r].t_max : -INFINITY;
+}
+
+static void same_segments(const consumer_t *a, const consumer_t *b, const char *what, int r)
+{
+    if (a->n != b->n)
+        fail_msg("%s, ray %d: %d segments walked alone, %d in the packet", what, r, a->n, b->n);
+    for (int k = 0; k < a->n; k++) {
+        const ray_segment_t *x = &a->seg[k], *y = &b->seg[k];
+        if (memcmp(&x->t_in, &y->t_in, sizeof x->t_in) ||
+            memcmp(&x->t_out, &y->t_out, sizeof x->t_out) || x->leaf != y->leaf ||
+            x->tape != y->tape)
+            fail_msg("%s, ray %d, segment %d: [%a, %a] leaf %lld alone, [%a, %a] leaf %lld in "
+                     "the packet", what, r, k, x->t_in, x->t_out, (long long)x->leaf, y->t_in,
+                     y->t_out, (long long)y->leaf);
+    }
+}
+
+/* Random packets (up to RAY_PACKET rays around a random axis, from a random
+ * origin inside or outside the box, a pixel's to a tile's spread) through
+ * trees with and without slabs and leaf tapes, on every SIMD path: each ray
+ * must get from ray_packet_walk the very segments (bits, leaf, tape, order)
+ * the per-ray walk yields, with t_max lowered and rays stopped along the way.
+ * Rays that ray_packet_ray turns away, or of another sign, are left out of
+ * the packet.  Not vacuous: most rays get segments, many several. */
+static void test_packet_walk(void **state)
+{
+    (void)state;
+    struct {
+        const char *name;
+        int slabs, tapes;
+    } cases[] = {{"gumdrop", 0, 0}, {"chubs", 1, 0}, {"whitney-umbrella", 0, 0},
+                 {"csg-64-spheres", 0, 1}};
+    uint64_t rng = tu_seed(0x9acc);
+    const int n_packets = (int)(300 * tu_scale()) + 30;
+    static const char *const paths[] = {"portable", "avx2", "avx512"};
+    long rays = 0, segments = 0, multi = 0;
+    for (size_t k = 0; k < sizeof cases / sizeof *cases; k++) {
+        scene_t s;
+        tu_load_scene(cases[k].name, &s);
+        if (cases[k].slabs)
+            s.octree.tests |= OCT_TEST_ILIE;
+        oct_tree_t *tree = tu_scene_octree(&s);
+        oct_leaf_tapes_t *lt = NULL;
+        ivoct_error_t err;
+        ivoct_error_clear(&err);
+        if (cases[k].tapes)
+            assert_int_equal(oct_leaf_tapes_build(tree, s.tape, 0x1p-30, 1.0, &lt, &err), 0);
+        if (cases[k].slabs)
+            assert_true(tree->slabs != NULL);
+        ray_octree_source_t os;
+        ray_source_t src = ray_octree_source(&os, tree);
+        os.tapes = lt;
+        void *st = malloc(src.state_size);
+        ray_packet_ws_t *pw = ray_packet_ws_new(tree);
+        assert_non_null(st);
+        assert_non_null(pw);
+        double c[3], h[3];
+        centre_half(s.box, c, h);
+        for (int b = 0; b < n_packets; b++) {
+            double o[3], axis[3], d[RAY_PACKET][3];
+            for (int a = 0; a < 3; a++) {
+                double u = 2 * tu_uniform(&rng) - 1;
+                o[a] = c[a] + h[a] * (b % 3 == 2 ? u : 3 * u);
+                axis[a] = c[a] + h[a] * (2 * tu_uniform(&rng) - 1) - o[a];
+            }
+            unit(axis);
+            double spread = pow(2, -3 - 12 * tu_uniform(&rng));
+            int n = 0;
+            unsigned mask0 = 0;
+            for (int j = 0; j < RAY_PACKET; j++) {
+                double dd[3];
+                for (int a = 0; a < 3; a++)
+                    dd[a] = axis[a] + spread * (2 * tu_uniform(&rng) - 1);
+                unit(dd);
+                unsigned m;
+                if (!ray_packet_ray(o, dd, &m) || (n > 0 && m != mask0))
+                    continue;
+                mask0 = m;
+                memcpy(d[n++], dd, sizeof dd);
+            }
+            if (n == 0)
+                continue;
+            uint64_t seed = tu_next(&rng);
+            /* alone */
+            consumer_t alone[RAY_PACKET];
+            for (int r = 0; r < n; r++) {
+                consumer_t *cr = &alone[r];
+                *cr = (consumer_t){.rng = seed + (uint64_t)r, .t_max = INFINITY, .cap = 256};
+                uint64_t leaves = 0;
+                ray_segment_t seg;
+                src.begin(src.ctx, st, o, d[r]);
+                for (;;) {
+                    seg.t_max = cr->t_max;
+                    if (!src.next(src.ctx, st, &seg, &leaves) || !consume(cr, &seg))
+                        break;
+                }
+                assert_int_equal(leaves, (uint64_t)cr->n);
+                rays++;
+                segments += cr->n;
+                multi += cr->n > 1;
+            }
+            /* together, on every path */
+            for (size_t q = 0; q < sizeof paths / sizeof *paths; q++) {
+                const char *p = paths[q];
+                if (!tape_simd_available(p))
+                    continue;
+                assert_int_equal(tape_simd_select(p, NULL), 0);
+                consumer_t pk[RAY_PACKET];
+                double t_max[RAY_PACKET];
+                for (int r = 0; r < n; r++) {
+                    pk[r] = (consumer_t){.rng = seed + (uint64_t)r, .t_max = INFINITY, .cap = 256};
+                    t_max[r] = INFINITY;
+                }
+                packet_check_t pc = {pk, t_max};
+                uint64_t leaves = 0;
+                ray_packet_walk(&os, pw, o, n, (const double(*)[3])d, t_max, packet_seg, &pc,
+                                &leaves);
+                uint64_t total = 0;
+                char what[128];
+                snprintf(what, sizeof what, "%s, packet %d, path %s", cases[k].name, b, p);
+                for (int r = 0; r < n; r++) {
+                    same_segments(&alone[r], &pk[r], what, r);
+                    total += (uint64_t)pk[r].n;
+                }
+                assert_int_equal(leaves, total);
+            }
+            tape_simd_select(NULL, NULL);
+        }
+        ray_packet_ws_free(pw);
+        free(st);
+        oct_leaf_tapes_free(lt);
+        oct_free(tree);
+        scene_free(&s);
+    }
+    printf("packets: %ld rays, %ld segments, %ld rays with more than one\n", rays, segments,
+           multi);
+    assert_true(rays > 100 && segments > rays && multi > 20);
 }
 
 /* ---- images -------------------------------------------------------------------------- */
@@ -424,7 +617,8 @@ static void test_deep(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_beam_walk),     cmocka_unit_test(test_comparison_surfaces),
+        cmocka_unit_test(test_beam_walk),     cmocka_unit_test(test_packet_walk),
+        cmocka_unit_test(test_comparison_surfaces),
         cmocka_unit_test(test_csg),           cmocka_unit_test(test_stress_scenes),
         cmocka_unit_test(test_deep),
     };

@@ -58,22 +58,51 @@ static inline void range(const double *e0, const double *e1, const double *e2,
     }
 }
 
-/* bit r set where ok[r].  (The tests that fill ok[] are written with & for
- * &&: the lane loops then have no branch and vectorise.) */
+/* The rays where a[r] <= b[r], and where a[r] < b[r], as bits (r: bit r);
+ * false where either is NaN.  On AVX-512 one compare gives the bits
+ * (packet_kernels_avx512.c defines PACKET_MASK_AVX512); elsewhere a lane
+ * loop, its results as wide as the doubles so that it vectorises, gathered
+ * into bits. */
+#ifdef PACKET_MASK_AVX512
+#include <immintrin.h>
+_Static_assert(PK == 8, "a packet is one AVX-512 vector");
+static inline uint32_t bits_le(const double *a, const double *b)
+{
+    return _mm512_cmp_pd_mask(_mm512_loadu_pd(a), _mm512_loadu_pd(b), _CMP_LE_OQ);
+}
+static inline uint32_t bits_lt(const double *a, const double *b)
+{
+    return _mm512_cmp_pd_mask(_mm512_loadu_pd(a), _mm512_loadu_pd(b), _CMP_LT_OQ);
+}
+#else
 static inline uint32_t lane_bits(const int64_t *ok)
 {
-    uint32_t b = 0;
+    uint32_t m = 0;
     for (int r = 0; r < PK; r++)
-        b |= (uint32_t)ok[r] << r;
-    return b;
+        m |= (uint32_t)ok[r] << r;
+    return m;
 }
+static inline uint32_t bits_le(const double *a, const double *b)
+{
+    int64_t ok[PK];
+    for (int r = 0; r < PK; r++)
+        ok[r] = a[r] <= b[r];
+    return lane_bits(ok);
+}
+static inline uint32_t bits_lt(const double *a, const double *b)
+{
+    int64_t ok[PK];
+    for (int r = 0; r < PK; r++)
+        ok[r] = a[r] < b[r];
+    return lane_bits(ok);
+}
+#endif
 
 void K(packet_walk)(packet_rays_t *p)
 {
     const oct_tree_t *tree = p->tree;
     pcell_t *stack = p->stack;
     double tm[PK], lo[PK], hi[PK], mlo[3][PK], mhi[3][PK];
-    int64_t ok[PK]; /* as wide as the doubles compared: the loops vectorise */
     memcpy(tm, p->t_max, sizeof tm);
 
     /* the root: the tree's box (oct_coord's planes 0 and 2^depth) */
@@ -85,11 +114,9 @@ void K(packet_walk)(packet_rays_t *p)
         root->i[a] = 0;
     }
     range(root->en[0], root->en[1], root->en[2], root->ex[0], root->ex[1], root->ex[2], lo, hi);
-    for (int r = 0; r < PK; r++)
-        ok[r] = (r < p->n) & (lo[r] <= hi[r]);
     root->word = tree->nodes[0];
     root->depth = 0;
-    root->active = lane_bits(ok);
+    root->active = bits_le(lo, hi) & ((1u << p->n) - 1u);
     int sp = root->active != 0;
 
     pcell_t c;
@@ -97,9 +124,7 @@ void K(packet_walk)(packet_rays_t *p)
         c = stack[--sp]; /* a copy: the children go where it was */
         range(c.en[0], c.en[1], c.en[2], c.ex[0], c.ex[1], c.ex[2], lo, hi);
         /* the roots of a ray in the cell lie at t >= lo: none can come first */
-        for (int r = 0; r < PK; r++)
-            ok[r] = lo[r] < tm[r];
-        uint32_t act = c.active & lane_bits(ok);
+        uint32_t act = c.active & bits_lt(lo, tm);
         if (!act)
             continue;
         if (OCT_NODE_KIND(c.word) == OCT_LEAF) {
@@ -119,7 +144,10 @@ void K(packet_walk)(packet_rays_t *p)
         int depth = c.depth + 1;
         if ((uint64_t)first + 8 > tree->n_nodes || depth > tree->depth)
             continue;
-        const oct_node_t *kids = tree->nodes + first;
+        /* the children's words first: the load often misses the cache, and
+         * the crossings below hide part of it */
+        oct_node_t kids[8];
+        memcpy(kids, tree->nodes + first, sizeof kids);
 
         /* per axis and half h, each ray's [entry, exit]: the near half from
          * the cell's entry to the mid-plane, the far one from there on; and
@@ -137,9 +165,7 @@ void K(packet_walk)(packet_rays_t *p)
             hl[a][!near] = mlo[a], hh[a][!near] = c.ex[a];
             for (int h = 0; h < 2; h++) {
                 const double *l = hl[a][h], *x = hh[a][h];
-                for (int r = 0; r < PK; r++)
-                    ok[r] = (l[r] <= hi[r]) & (x[r] >= lo[r]);
-                half[a][h] = lane_bits(ok);
+                half[a][h] = bits_le(l, hi) & bits_le(lo, x);
             }
         }
         /* pushed back to front, so the front one is popped first */
@@ -154,9 +180,7 @@ void K(packet_walk)(packet_rays_t *p)
             const double *x0 = hh[0][hx], *x1 = hh[1][hy], *x2 = hh[2][hz];
             double cl[PK], ch[PK];
             range(e0, e1, e2, x0, x1, x2, cl, ch);
-            for (int r = 0; r < PK; r++)
-                ok[r] = (cl[r] <= ch[r]) & (cl[r] < tm[r]);
-            uint32_t kact = can & lane_bits(ok);
+            uint32_t kact = can & bits_le(cl, ch) & bits_lt(cl, tm);
             if (!kact)
                 continue;
             pcell_t *e = &stack[sp++];
@@ -172,6 +196,11 @@ void K(packet_walk)(packet_rays_t *p)
             e->word = w;
             e->depth = depth;
             e->active = kact;
+#ifdef __GNUC__
+            /* its children's words, read when it is popped */
+            if (OCT_NODE_KIND(w) == OCT_INTERIOR && OCT_NODE_VALUE(w) < tree->n_nodes)
+                __builtin_prefetch(tree->nodes + OCT_NODE_VALUE(w));
+#endif
         }
     }
 }

@@ -180,6 +180,8 @@ static size_t padded(size_t m)
  * (kernels.h, "Short batches"). */
 static size_t padded_short(const tape_kernels_t *kern, size_t m)
 {
+    if (m <= kern->short_half)
+        return kern->short_half;
     return m < kern->short_lanes ? kern->short_lanes : padded(m);
 }
 

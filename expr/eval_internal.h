@@ -68,6 +68,9 @@ typedef struct tape_kernels {
      * passes padded to exactly this many, which those passes run through a copy
      * compiled for that count (kernels.h, "Short batches"); 0: as they are. */
     size_t short_lanes;
+    /* Batches of at most this many lanes (half of short_lanes, where it pays)
+     * go padded to exactly this many, through a copy compiled for it; 0: none. */
+    size_t short_half;
 } tape_kernels_t;
 
 /* deps[i] for every clause of t: bit 0, 1, 2 when clause i depends on x, y,

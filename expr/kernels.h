@@ -960,8 +960,47 @@ KERNEL_FLATTEN static void K(ray_inputs_short)(const double o[3], const double d
 }
 #endif
 
+/* Half a short batch.  Where KERNEL_SHORT_HALF is not 0 (kernels_avx512.c), the
+ * same passes also exist for exactly that many lanes, half a vector, and eval.c
+ * pads a batch of at most that many to it: a CPU that runs a 512-bit operation
+ * as two 256-bit halves (AMD's Zen 4) runs such a pass in about half the time
+ * of the whole vector's.  The lanes are independent: the bits are the same. */
+#ifndef KERNEL_SHORT_HALF
+#error "kernels_<target>.c defines KERNEL_SHORT_HALF: 0 or half of KERNEL_SHORT_LANES"
+#endif
+#if KERNEL_SHORT_HALF
+KERNEL_FLATTEN static void K(point_half)(const tape_t *t, double *S, kernel_in_t in)
+{
+    K(point_n)(t, S, KERNEL_SHORT_HALF, in);
+}
+
+KERNEL_FLATTEN static void K(interval_half)(const tape_t *t, double *LO, double *HI,
+                                            kernel_in_t in)
+{
+    K(interval_n)(t, LO, HI, KERNEL_SHORT_HALF, in);
+}
+
+KERNEL_FLATTEN static void K(ray_half)(const tape_t *t, double *R, kernel_in_t in,
+                                       kernel_in_t dir_rho)
+{
+    K(ray_n)(t, R, KERNEL_SHORT_HALF, in, dir_rho);
+}
+
+KERNEL_FLATTEN static void K(ray_inputs_half)(const double o[3], const double d[3],
+                                              const double *tl, const double *th, double *in)
+{
+    K(ray_inputs_n)(KERNEL_SHORT_HALF, o, d, tl, th, in);
+}
+#endif
+
 static void K(point)(const tape_t *t, double *S, size_t nl, kernel_in_t in)
 {
+#if KERNEL_SHORT_HALF
+    if (nl == KERNEL_SHORT_HALF) {
+        K(point_half)(t, S, in);
+        return;
+    }
+#endif
 #if KERNEL_SHORT_LANES
     if (nl == KERNEL_SHORT_LANES) {
         K(point_short)(t, S, in);
@@ -973,6 +1012,12 @@ static void K(point)(const tape_t *t, double *S, size_t nl, kernel_in_t in)
 
 static void K(interval)(const tape_t *t, double *LO, double *HI, size_t nl, kernel_in_t in)
 {
+#if KERNEL_SHORT_HALF
+    if (nl == KERNEL_SHORT_HALF) {
+        K(interval_half)(t, LO, HI, in);
+        return;
+    }
+#endif
 #if KERNEL_SHORT_LANES
     if (nl == KERNEL_SHORT_LANES) {
         K(interval_short)(t, LO, HI, in);
@@ -984,6 +1029,12 @@ static void K(interval)(const tape_t *t, double *LO, double *HI, size_t nl, kern
 
 static void K(ray)(const tape_t *t, double *R, size_t nl, kernel_in_t in, kernel_in_t dir_rho)
 {
+#if KERNEL_SHORT_HALF
+    if (nl == KERNEL_SHORT_HALF) {
+        K(ray_half)(t, R, in, dir_rho);
+        return;
+    }
+#endif
 #if KERNEL_SHORT_LANES
     if (nl == KERNEL_SHORT_LANES) {
         K(ray_short)(t, R, in, dir_rho);
@@ -996,6 +1047,12 @@ static void K(ray)(const tape_t *t, double *R, size_t nl, kernel_in_t in, kernel
 static void K(ray_inputs)(size_t nl, const double o[3], const double d[3], const double *tl,
                           const double *th, double *in)
 {
+#if KERNEL_SHORT_HALF
+    if (nl == KERNEL_SHORT_HALF) {
+        K(ray_inputs_half)(o, d, tl, th, in);
+        return;
+    }
+#endif
 #if KERNEL_SHORT_LANES
     if (nl == KERNEL_SHORT_LANES) {
         K(ray_inputs_short)(o, d, tl, th, in);
@@ -1007,4 +1064,5 @@ static void K(ray_inputs)(size_t nl, const double o[3], const double d[3], const
 
 const tape_kernels_t K(tape_kernels) = {KSTR(KERNEL_TARGET), K(point),      K(interval),
                                         K(grad),             K(point_grad), K(ray),
-                                        K(ray_inputs),       KERNEL_SHORT_LANES};
+                                        K(ray_inputs),       KERNEL_SHORT_LANES,
+                                        KERNEL_SHORT_HALF};

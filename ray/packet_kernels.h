@@ -59,22 +59,11 @@ static inline void range(const double *e0, const double *e1, const double *e2,
 }
 
 /* The rays where a[r] <= b[r], and where a[r] < b[r], as bits (r: bit r);
- * false where either is NaN.  On AVX-512 one compare gives the bits
- * (packet_kernels_avx512.c defines PACKET_MASK_AVX512); elsewhere a lane
- * loop, its results as wide as the doubles so that it vectorises, gathered
- * into bits. */
-#ifdef PACKET_MASK_AVX512
-#include <immintrin.h>
-_Static_assert(PK == 8, "a packet is one AVX-512 vector");
-static inline uint32_t bits_le(const double *a, const double *b)
-{
-    return _mm512_cmp_pd_mask(_mm512_loadu_pd(a), _mm512_loadu_pd(b), _CMP_LE_OQ);
-}
-static inline uint32_t bits_lt(const double *a, const double *b)
-{
-    return _mm512_cmp_pd_mask(_mm512_loadu_pd(a), _mm512_loadu_pd(b), _CMP_LT_OQ);
-}
-#else
+ * false where either is NaN.  A lane loop, its results as wide as the
+ * doubles so that it vectorises, gathered into bits; packet_kernels_avx512.c
+ * has its own, one compare into a mask register each, and defines
+ * PACKET_LANE_BITS. */
+#ifndef PACKET_LANE_BITS
 static inline uint32_t lane_bits(const int64_t *ok)
 {
     uint32_t m = 0;

@@ -963,8 +963,9 @@ KERNEL_FLATTEN static void K(ray_inputs_short)(const double o[3], const double d
 /* Half a short batch.  Where KERNEL_SHORT_HALF is not 0 (kernels_avx512.c), the
  * same passes also exist for exactly that many lanes, half a vector, and eval.c
  * pads a batch of at most that many to it: a CPU that runs a 512-bit operation
- * as two 256-bit halves (AMD's Zen 4) runs such a pass in about half the time
- * of the whole vector's.  The lanes are independent: the bits are the same. */
+ * as two 256-bit halves (AMD's Zen 4) runs such a pass in less time than the
+ * whole vector's (three quarters, measured: expr/README.md).  The lanes are
+ * independent: the bits are the same. */
 #ifndef KERNEL_SHORT_HALF
 #error "kernels_<target>.c defines KERNEL_SHORT_HALF: 0 or half of KERNEL_SHORT_LANES"
 #endif

@@ -20,7 +20,8 @@ struct tape_ws {
     uint32_t max_clauses;
     double *point;      /* max_clauses * B */
     double *lo, *hi;    /* max_clauses * B each */
-    double *grad;       /* max_clauses * G_ARRAYS * B (also the ray pass's R_ARRAYS) */
+    double *grad;       /* (max_clauses + 1) * G_ARRAYS * B (also the ray pass's R_ARRAYS) */
+    uint32_t *gsrc;     /* 3 * max_clauses: where the gradient pass's partials live */
     double *in;         /* 12 * B: the inputs of a pass (the ray pass's directions and
                            rounding radii in the second half) */
     uint8_t *deps;      /* max_clauses: tape_deps of the gradient pass */
@@ -38,10 +39,12 @@ tape_ws_t *tape_ws_new(uint32_t max_clauses)
     ws->point = malloc(n * B * sizeof *ws->point);
     ws->lo = malloc(n * B * sizeof *ws->lo);
     ws->hi = malloc(n * B * sizeof *ws->hi);
-    ws->grad = malloc(n * G_ARRAYS * B * sizeof *ws->grad);
+    ws->grad = malloc((n + 1) * G_ARRAYS * B * sizeof *ws->grad);
+    ws->gsrc = malloc(3 * n * sizeof *ws->gsrc);
     ws->in = malloc(12 * B * sizeof *ws->in);
     ws->deps = malloc(n);
-    if (!ws->point || !ws->lo || !ws->hi || !ws->grad || !ws->in || !ws->deps) {
+    if (!ws->point || !ws->lo || !ws->hi || !ws->grad || !ws->gsrc || !ws->in ||
+        !ws->deps) {
         tape_ws_free(ws);
         return NULL;
     }
@@ -52,7 +55,7 @@ size_t tape_ws_bytes(uint32_t max_clauses)
 {
     size_t n = max_clauses ? max_clauses : 1;
     return sizeof(struct tape_ws) + n * B * sizeof(double) * (3 + G_ARRAYS) +
-           12 * B * sizeof(double) + n;
+           G_ARRAYS * B * sizeof(double) + 3 * n * sizeof(uint32_t) + 12 * B * sizeof(double) + n;
 }
 
 void tape_ws_free(tape_ws_t *ws)
@@ -63,6 +66,7 @@ void tape_ws_free(tape_ws_t *ws)
     free(ws->lo);
     free(ws->hi);
     free(ws->grad);
+    free(ws->gsrc);
     free(ws->in);
     free(ws->deps);
     free(ws);
@@ -312,16 +316,21 @@ void tape_eval_grad(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *bo
     const tape_kernels_t *kern = kernels();
     const double *in[6] = PASS_IN(ws);
     const double *r = ws->grad + (size_t)(t->n - 1) * G_ARRAYS * B;
+    const uint32_t *rs = ws->gsrc + 3 * (size_t)(t->n - 1);
     tape_deps(t, ws->deps);
     for (size_t base = 0; base < n; base += B) {
         size_t m = n - base < B ? n - base : B, np = padded(m);
         load_boxes(ws, box + base, m, np);
-        kern->grad(t, ws->deps, ws->grad, np, in);
+        kern->grad(t, ws->deps, ws->grad, ws->gsrc, np, in);
+        /* the partials where they live (the slots rs names: kernels.h) */
+        const double *dx = ws->grad + ((size_t)rs[0] * G_ARRAYS + G_XLO) * B;
+        const double *dy = ws->grad + ((size_t)rs[1] * G_ARRAYS + G_YLO) * B;
+        const double *dz = ws->grad + ((size_t)rs[2] * G_ARRAYS + G_ZLO) * B;
         for (size_t k = 0; k < m; k++)
             out[base + k] = (iv_grad_t){{r[G_VLO * B + k], r[G_VHI * B + k]},
-                                        {r[G_XLO * B + k], r[G_XHI * B + k]},
-                                        {r[G_YLO * B + k], r[G_YHI * B + k]},
-                                        {r[G_ZLO * B + k], r[G_ZHI * B + k]}};
+                                        {dx[k], dx[k + B]},
+                                        {dy[k], dy[k + B]},
+                                        {dz[k], dz[k + B]}};
     }
 }
 

@@ -46,10 +46,13 @@ typedef struct tape_kernels {
     void (*point)(const tape_t *t, double *S, size_t nl, kernel_in_t in);
     /* enclosures into LO, HI (slot i at + i * TAPE_BATCH) */
     void (*interval)(const tape_t *t, double *LO, double *HI, size_t nl, kernel_in_t in);
-    /* enclosures and gradients into G (array c of slot i at
-     * G + (i * G_ARRAYS + c) * TAPE_BATCH); deps[i]: the variables clause i
-     * depends on (bit 0 x, 1 y, 2 z), from tape_deps */
-    void (*grad)(const tape_t *t, const uint8_t *deps, double *G, size_t nl, kernel_in_t in);
+    /* enclosures and gradients into G, t->n + 1 slots: array c of slot i at
+     * G + (i * G_ARRAYS + c) * TAPE_BATCH, the value's (c = G_VLO, G_VHI) in
+     * slot i itself, partial j's (j = 1, 2, 3: dx, dy, dz) in slot src[3 i + j - 1]
+     * (kernels.h says why); deps[i]: the variables clause i depends on (bit 0
+     * x, 1 y, 2 z), from tape_deps */
+    void (*grad)(const tape_t *t, const uint8_t *deps, double *G, uint32_t *src, size_t nl,
+                 kernel_in_t in);
     /* values and partials at points into P (array c of slot i at
      * P + (i * P_ARRAYS + c) * TAPE_BATCH), deps as for grad; points as for
      * point */

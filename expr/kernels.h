@@ -194,23 +194,51 @@ static inline void K(point_n)(const tape_t *t, double *S, size_t nl, kernel_in_t
     }
 }
 
-/* ---- interval + gradient lanes ------------------------------------------------------ */
+/* ---- interval + gradient lanes ------------------------------------------------------
+ * A slot's value lives in its own arrays; each of its partials (component c =
+ * 1, 2, 3: dx, dy, dz) in the arrays of component c of the slot src[3 i + c - 1]
+ * names: its own when the clause computes it, an operand's when the partial
+ * is that operand's unchanged (a sum with an operand that has no such
+ * partial, a constant subtracted), and the zero slot (just past the tape,
+ * zeroed once a pass) when it is exactly [0, 0].  So a sum of terms in other
+ * variables (the CSG scenes' spheres) or a constant added copies nothing and
+ * writes no zeros.  The values are the same as copies: reading a partial where
+ * it lives is reading what a copy would hold. */
 
-static inline iv_grad_t g_load(const double *g, size_t k)
+/* A slot as an operand: p[0] its value's lower bounds, p[c] the lower bounds
+ * of its partial c; each upper bound array B doubles after. */
+typedef struct gview {
+    const double *p[4];
+} gview_t;
+
+#define GSLOT(G, s) ((G) + (size_t)(s) * G_ARRAYS * B)
+#define GLO(p, c) ((p) + (size_t)(2 * (c)) * B)
+#define GHI(p, c) ((p) + (size_t)(2 * (c) + 1) * B)
+
+static inline gview_t g_view(const double *G, const uint32_t *src, uint32_t s)
 {
-    iv_grad_t r = {{g[G_VLO * B + k], g[G_VHI * B + k]},
-                   {g[G_XLO * B + k], g[G_XHI * B + k]},
-                   {g[G_YLO * B + k], g[G_YHI * B + k]},
-                   {g[G_ZLO * B + k], g[G_ZHI * B + k]}};
+    gview_t v = {{GSLOT(G, s), NULL, NULL, NULL}};
+    for (int c = 1; c < 4; c++)
+        v.p[c] = GLO(GSLOT(G, src[3 * (size_t)s + (size_t)c - 1]), c);
+    return v;
+}
+
+static inline iv_grad_t g_load(const gview_t *g, size_t k)
+{
+    iv_grad_t r = {{g->p[0][k], g->p[0][k + B]},
+                   {g->p[1][k], g->p[1][k + B]},
+                   {g->p[2][k], g->p[2][k + B]},
+                   {g->p[3][k], g->p[3][k + B]}};
     return r;
 }
 
-static inline void g_store(double *g, size_t k, iv_grad_t r)
+/* every component into o, slot i's own arrays (src[3 i ..] set by the caller) */
+static inline void g_store(double *o, size_t k, iv_grad_t r)
 {
-    g[G_VLO * B + k] = r.v.lo, g[G_VHI * B + k] = r.v.hi;
-    g[G_XLO * B + k] = r.dx.lo, g[G_XHI * B + k] = r.dx.hi;
-    g[G_YLO * B + k] = r.dy.lo, g[G_YHI * B + k] = r.dy.hi;
-    g[G_ZLO * B + k] = r.dz.lo, g[G_ZHI * B + k] = r.dz.hi;
+    o[G_VLO * B + k] = r.v.lo, o[G_VHI * B + k] = r.v.hi;
+    o[G_XLO * B + k] = r.dx.lo, o[G_XHI * B + k] = r.dx.hi;
+    o[G_YLO * B + k] = r.dy.lo, o[G_YHI * B + k] = r.dy.hi;
+    o[G_ZLO * B + k] = r.dz.lo, o[G_ZHI * B + k] = r.dz.hi;
 }
 
 /* value v, gradient s * grad(a) */
@@ -220,10 +248,6 @@ static inline iv_grad_t g_scale(iv_t v, iv_t s, iv_grad_t a)
     return r;
 }
 
-
-
-
-
 /* (a/b)' = (a' - (a/b) b') / b */
 static inline iv_grad_t g_div(iv_grad_t a, iv_grad_t b)
 {
@@ -232,27 +256,6 @@ static inline iv_grad_t g_div(iv_grad_t a, iv_grad_t b)
                    iv_div(iv_sub(a.dy, iv_mul(q, b.dy)), b.v),
                    iv_div(iv_sub(a.dz, iv_mul(q, b.dz)), b.v)};
     return r;
-}
-
-/* min/max: the branch that is certainly selected carries its gradient; else
- * the hull of both gradients. */
-static inline iv_grad_t g_select(iv_t v, iv_grad_t a, iv_grad_t b, int pick)
-{
-    iv_grad_t h = {v, fm_hull_or_empty(a.dx, b.dx), fm_hull_or_empty(a.dy, b.dy),
-                   fm_hull_or_empty(a.dz, b.dz)};
-    iv_grad_t r = pick < 0 ? a : pick > 0 ? b : h;
-    r.v = v;
-    return r;
-}
-
-static inline iv_grad_t g_min(iv_grad_t a, iv_grad_t b)
-{
-    return g_select(k_min(a.v, b.v), a, b, fm_pick_min(a.v, b.v));
-}
-
-static inline iv_grad_t g_max(iv_grad_t a, iv_grad_t b)
-{
-    return g_select(k_max(a.v, b.v), a, b, fm_pick_max(a.v, b.v));
 }
 
 static inline iv_grad_t g_unary(tape_op_t op, iv_t c, iv_grad_t a)
@@ -265,46 +268,42 @@ static inline iv_grad_t g_unary(tape_op_t op, iv_t c, iv_grad_t a)
 /* The cheap ops of the gradient pass run one loop per component (value, dx,
  * dy, dz) over that component's arrays, like the interval pass, so they
  * vectorise; the others go lane by lane through the rules above. */
-#define GLO(p, c) ((p) + (size_t)(2 * (c)) * B)
-#define GHI(p, c) ((p) + (size_t)(2 * (c) + 1) * B)
 
 /* Which partials of a slot can be non-zero: bit c - 1 for component c (dx,
  * dy, dz), from the variables the clause depends on (eval.c,
- * tape_deps).  A partial outside the mask is exactly [0, 0]: its arrays are
- * zeroed, and the rules skip the products and sums with it (a sum with an
+ * tape_deps).  A partial outside the mask is exactly [0, 0]: it lives in the
+ * zero slot, and the rules skip the products and sums with it (a sum with an
  * exact 0 and a product by [0, 0] are exact, up to the sign of a zero). */
 #define HAS(mask, c) ((mask) >> ((c) - 1) & 1u)
 
-static void g_zero(double *o, int c, size_t nl)
-{
-    memset(GLO(o, c), 0, nl * sizeof *o);
-    memset(GHI(o, c), 0, nl * sizeof *o);
-}
+/* The clause being computed: its own arrays o, its row of src, the slot
+ * numbers of itself and of the zero slot. */
+typedef struct gout {
+    double *o;
+    uint32_t *src;
+    uint32_t self, zero;
+} gout_t;
 
-static void g_copy(double *o, const double *a, int c, size_t nl, int negate)
-{
-    double *restrict ol = GLO(o, c), *restrict oh = GHI(o, c);
-    const double *al = GLO(a, c), *ah = GHI(a, c);
-    if (negate)
-        for (size_t k = 0; k < nl; k++) ol[k] = -ah[k], oh[k] = -al[k];
-    else
-        memcpy(ol, al, nl * sizeof *ol), memcpy(oh, ah, nl * sizeof *oh);
-}
-
-/* o = a + b, a - b (sign -1), componentwise; ma, mb the operands' masks */
-static void g_lanes_add(double *o, const double *a, const double *b, size_t nl, int sign,
-                        unsigned ma, unsigned mb)
+/* o = a + b, a - b (sign -1), componentwise; ma, mb the operands' masks, sa,
+ * sb their rows of src */
+static void g_lanes_add(const gout_t *out, const gview_t *a, const gview_t *b,
+                        const uint32_t *sa, const uint32_t *sb, size_t nl, int sign, unsigned ma,
+                        unsigned mb)
 {
     for (int c = 0; c < 4; c++) {
-        double *restrict ol = GLO(o, c), *restrict oh = GHI(o, c);
-        const double *al = GLO(a, c), *ah = GHI(a, c), *bl = GLO(b, c), *bh = GHI(b, c);
+        double *restrict ol = GLO(out->o, c), *restrict oh = GHI(out->o, c);
+        const double *al = a->p[c], *ah = al + B, *bl = b->p[c], *bh = bl + B;
         if (c > 0 && !(HAS(ma, c) && HAS(mb, c))) {
-            if (HAS(ma, c))
-                g_copy(o, a, c, nl, 0);
-            else if (HAS(mb, c))
-                g_copy(o, b, c, nl, sign < 0);
-            else
-                g_zero(o, c, nl);
+            if (HAS(ma, c)) {
+                out->src[c - 1] = sa[c - 1];
+            } else if (HAS(mb, c) && sign > 0) {
+                out->src[c - 1] = sb[c - 1];
+            } else if (HAS(mb, c)) {
+                for (size_t k = 0; k < nl; k++) ol[k] = -bh[k], oh[k] = -bl[k];
+                out->src[c - 1] = out->self;
+            } else {
+                out->src[c - 1] = out->zero;
+            }
             continue;
         }
         if (sign > 0)
@@ -313,25 +312,28 @@ static void g_lanes_add(double *o, const double *a, const double *b, size_t nl, 
         else
             for (size_t k = 0; k < nl; k++)
                 ol[k] = iv_add_down(al[k], -bh[k]), oh[k] = iv_add_up(ah[k], -bl[k]);
+        if (c > 0)
+            out->src[c - 1] = out->self;
     }
 }
 
 /* the partials of o = s * the partials of a (g_scale; o's value is set by
  * the caller); ma: a's mask */
-static void g_lanes_scale(double *o, const double *sl, const double *sh, const double *a,
-                          size_t nl, unsigned ma)
+static void g_lanes_scale(const gout_t *out, const double *sl, const double *sh,
+                          const gview_t *a, size_t nl, unsigned ma)
 {
     for (int c = 1; c < 4; c++) {
         if (!HAS(ma, c)) {
-            g_zero(o, c, nl);
+            out->src[c - 1] = out->zero;
             continue;
         }
-        double *restrict ol = GLO(o, c), *restrict oh = GHI(o, c);
-        const double *al = GLO(a, c), *ah = GHI(a, c);
+        double *restrict ol = GLO(out->o, c), *restrict oh = GHI(out->o, c);
+        const double *al = a->p[c], *ah = al + B;
         for (size_t k = 0; k < nl; k++) {
             iv_t r = iv_mul(IV(sl, sh, k), IV(al, ah, k));
             ol[k] = r.lo, oh[k] = r.hi;
         }
+        out->src[c - 1] = out->self;
     }
 }
 
@@ -357,16 +359,17 @@ static void lanes_mul_add(double *restrict ol, double *restrict oh, const double
 
 /* the product rule (g_mul); a partial of one operand alone is a single
  * product */
-static void g_lanes_mul(double *o, const double *a, const double *b, size_t nl, unsigned ma,
-                        unsigned mb)
+static void g_lanes_mul(const gout_t *out, const gview_t *a, const gview_t *b, size_t nl,
+                        unsigned ma, unsigned mb)
 {
-    const double *avl = GLO(a, 0), *avh = GHI(a, 0), *bvl = GLO(b, 0), *bvh = GHI(b, 0);
+    const double *avl = a->p[0], *avh = avl + B, *bvl = b->p[0], *bvh = bvl + B;
     for (int c = 1; c < 4; c++) {
-        double *restrict ol = GLO(o, c), *restrict oh = GHI(o, c);
-        const double *adl = GLO(a, c), *adh = GHI(a, c), *bdl = GLO(b, c), *bdh = GHI(b, c);
+        double *restrict ol = GLO(out->o, c), *restrict oh = GHI(out->o, c);
+        const double *adl = a->p[c], *adh = adl + B, *bdl = b->p[c], *bdh = bdl + B;
+        out->src[c - 1] = out->self;
         if (!(HAS(ma, c) && HAS(mb, c))) {
             if (!HAS(ma, c) && !HAS(mb, c)) {
-                g_zero(o, c, nl);
+                out->src[c - 1] = out->zero;
                 continue;
             }
             /* a' b or a b' */
@@ -380,7 +383,7 @@ static void g_lanes_mul(double *o, const double *a, const double *b, size_t nl, 
         }
         lanes_mul_add(ol, oh, adl, adh, bvl, bvh, avl, avh, bdl, bdh, nl);
     }
-    double *restrict ol = GLO(o, 0), *restrict oh = GHI(o, 0);
+    double *restrict ol = GLO(out->o, 0), *restrict oh = GHI(out->o, 0);
     for (size_t k = 0; k < nl; k++) {
         iv_t r = iv_mul(IV(avl, avh, k), IV(bvl, bvh, k));
         ol[k] = r.lo, oh[k] = r.hi;
@@ -388,16 +391,16 @@ static void g_lanes_mul(double *o, const double *a, const double *b, size_t nl, 
 }
 
 /* x^2 (g_sqr): the value, and 2x times the partials */
-static void g_lanes_sqr(double *o, const double *a, size_t nl, unsigned ma)
+static void g_lanes_sqr(const gout_t *out, const gview_t *a, size_t nl, unsigned ma)
 {
-    const double *avl = GLO(a, 0), *avh = GHI(a, 0);
+    const double *avl = a->p[0], *avh = avl + B;
     double sl[B], sh[B];
     for (size_t k = 0; k < nl; k++) {
         iv_t s2 = iv_add(IV(avl, avh, k), IV(avl, avh, k));
         sl[k] = s2.lo, sh[k] = s2.hi;
     }
-    g_lanes_scale(o, sl, sh, a, nl, ma);
-    double *restrict ol = GLO(o, 0), *restrict oh = GHI(o, 0);
+    g_lanes_scale(out, sl, sh, a, nl, ma);
+    double *restrict ol = GLO(out->o, 0), *restrict oh = GHI(out->o, 0);
     for (size_t k = 0; k < nl; k++) {
         iv_t r = iv_sqr(IV(avl, avh, k));
         ol[k] = r.lo, oh[k] = r.hi;
@@ -405,9 +408,10 @@ static void g_lanes_sqr(double *o, const double *a, size_t nl, unsigned ma)
 }
 
 /* x^n, n >= 3 (fm_unary's rule): the value, and n x^(n-1) times the partials */
-static void g_lanes_powi(double *o, const double *a, size_t nl, unsigned n, unsigned ma)
+static void g_lanes_powi(const gout_t *out, const gview_t *a, size_t nl, unsigned n,
+                         unsigned ma)
 {
-    const double *avl = GLO(a, 0), *avh = GHI(a, 0);
+    const double *avl = a->p[0], *avh = avl + B;
     double sl[B], sh[B];
     if (n - 1 == 2) {
         for (size_t k = 0; k < nl; k++) {
@@ -422,28 +426,78 @@ static void g_lanes_powi(double *o, const double *a, size_t nl, unsigned n, unsi
         iv_t r = iv_mul(nn, IV(sl, sh, k));
         sl[k] = r.lo, sh[k] = r.hi;
     }
-    g_lanes_scale(o, sl, sh, a, nl, ma);
-    iv_powi_lanes(avl, avh, nl, n, GLO(o, 0), GHI(o, 0));
+    g_lanes_scale(out, sl, sh, a, nl, ma);
+    iv_powi_lanes(avl, avh, nl, n, GLO(out->o, 0), GHI(out->o, 0));
 }
 
-#define G_LANES_BINARY(fn)                                                                   \
-    for (size_t k = 0; k < nl; k++)                                                          \
-        g_store(o, k, fn(g_load(a, k), g_load(b, k)));
-
-static void K(grad)(const tape_t *t, const uint8_t *deps, double *G, size_t nl, kernel_in_t in)
+/* min/max a component at a time, so it vectorises: the value, and each partial
+ * that of the operand certainly selected (fm_pick_min, fm_pick_max), else the
+ * hull of both (empty if either is).  Every component is computed, masks or
+ * not: a partial outside its mask may be empty where the value is (g_unary),
+ * and the hull keeps that. */
+static inline void g_lanes_select(const gout_t *out, const gview_t *a, const gview_t *b,
+                                  size_t nl, int is_max)
 {
+    const double *avl = a->p[0], *avh = avl + B, *bvl = b->p[0], *bvh = bvl + B;
+    for (int c = 1; c < 4; c++) {
+        double *restrict ol = GLO(out->o, c), *restrict oh = GHI(out->o, c);
+        const double *al = a->p[c], *ah = al + B, *bl = b->p[c], *bh = bl + B;
+        /* fm_pick_min/max and fm_hull_or_empty's rules, written as flags and
+         * selects: through the -1/0/1 of fm_pick the loop runs 15% slower */
+        for (size_t k = 0; k < nl; k++) {
+            int pa = is_max ? avl[k] >= bvh[k] : avh[k] <= bvl[k]; /* a certainly selected */
+            int pb = is_max ? bvl[k] >= avh[k] : bvh[k] <= avl[k];
+            int empty = (al[k] != al[k]) | (ah[k] != ah[k]) | (bl[k] != bl[k]) | (bh[k] != bh[k]);
+            double hl = al[k] < bl[k] ? al[k] : bl[k], hh = ah[k] > bh[k] ? ah[k] : bh[k];
+            hl = empty ? NAN : hl;
+            hh = empty ? NAN : hh;
+            ol[k] = pa ? al[k] : pb ? bl[k] : hl;
+            oh[k] = pa ? ah[k] : pb ? bh[k] : hh;
+        }
+        out->src[c - 1] = out->self;
+    }
+    double *restrict ol = GLO(out->o, 0), *restrict oh = GHI(out->o, 0);
+    for (size_t k = 0; k < nl; k++) {
+        iv_t v = is_max ? k_max(IV(avl, avh, k), IV(bvl, bvh, k))
+                        : k_min(IV(avl, avh, k), IV(bvl, bvh, k));
+        ol[k] = v.lo, oh[k] = v.hi;
+    }
+}
+
+/* slot i computed lane by lane, every component its own */
+static void g_own(const gout_t *out)
+{
+    for (int c = 0; c < 3; c++)
+        out->src[c] = out->self;
+}
+
+/* G holds t->n + 1 slots: the last is the zero slot.  src: 3 t->n entries
+ * (see the top of this section). */
+static void K(grad)(const tape_t *t, const uint8_t *deps, double *G, uint32_t *src, size_t nl,
+                    kernel_in_t in)
+{
+    const uint32_t zero = t->n;
+    for (int j = G_XLO; j < G_ARRAYS; j++)
+        memset(GSLOT(G, zero) + j * B, 0, nl * sizeof *G);
     for (uint32_t i = 0; i < t->n; i++) {
         const tape_clause_t *c = &t->clauses[i];
-        double *o = G + (size_t)i * G_ARRAYS * B;
-        const double *a = G + (size_t)c->a * G_ARRAYS * B, *b = G + (size_t)c->b * G_ARRAYS * B;
+        double *o = GSLOT(G, i);
         tape_op_t op = (tape_op_t)c->op;
-        unsigned ma = deps[c->a], mb = tape_op_arity(op) == 2 ? deps[c->b] : 0;
+        const int binary = tape_op_arity(op) == 2;
+        const gout_t out = {o, src + 3 * (size_t)i, i, zero};
+        gview_t a = {{NULL, NULL, NULL, NULL}}, b = a;
+        if (tape_op_arity(op) >= 1)
+            a = g_view(G, src, c->a);
+        if (binary)
+            b = g_view(G, src, c->b);
+        const uint32_t *sa = src + 3 * (size_t)c->a, *sb = binary ? src + 3 * (size_t)c->b : NULL;
+        unsigned ma = deps[c->a], mb = binary ? deps[c->b] : 0;
         switch (op) {
         case TAPE_CONST:
             for (size_t k = 0; k < nl; k++)
                 o[G_VLO * B + k] = c->c.lo, o[G_VHI * B + k] = c->c.hi;
-            for (int j = G_XLO; j < G_ARRAYS; j++)
-                memset(o + j * B, 0, nl * sizeof *o);
+            for (int j = 0; j < 3; j++)
+                out.src[j] = zero;
             break;
         case TAPE_X:
         case TAPE_Y:
@@ -451,40 +505,50 @@ static void K(grad)(const tape_t *t, const uint8_t *deps, double *G, size_t nl, 
             int axis = op - TAPE_X;
             memcpy(o + G_VLO * B, in[2 * axis], nl * sizeof *o);
             memcpy(o + G_VHI * B, in[2 * axis + 1], nl * sizeof *o);
-            for (int j = G_XLO; j < G_ARRAYS; j++) {
-                double v = (j - G_XLO) / 2 == axis ? 1.0 : 0.0;
-                for (size_t k = 0; k < nl; k++)
-                    o[j * B + k] = v;
-            }
+            for (size_t k = 0; k < nl; k++)
+                GLO(o, axis + 1)[k] = GHI(o, axis + 1)[k] = 1.0;
+            for (int j = 0; j < 3; j++)
+                out.src[j] = j == axis ? i : zero;
             break;
         }
         case TAPE_NEG:
             for (int j = 0; j < 4; j++) {
-                if (j > 0 && !HAS(ma, j))
-                    g_zero(o, j, nl);
-                else
-                    g_copy(o, a, j, nl, 1);
+                if (j > 0 && !HAS(ma, j)) {
+                    out.src[j - 1] = zero;
+                    continue;
+                }
+                double *restrict ol = GLO(o, j), *restrict oh = GHI(o, j);
+                const double *al = a.p[j], *ah = al + B;
+                for (size_t k = 0; k < nl; k++) ol[k] = -ah[k], oh[k] = -al[k];
+                if (j > 0)
+                    out.src[j - 1] = i;
             }
             break;
-        case TAPE_SQR: g_lanes_sqr(o, a, nl, ma); break;
+        case TAPE_SQR: g_lanes_sqr(&out, &a, nl, ma); break;
         case TAPE_POWI:
             if ((int)c->c.lo >= 3) {
-                g_lanes_powi(o, a, nl, (unsigned)(int)c->c.lo, ma);
+                g_lanes_powi(&out, &a, nl, (unsigned)(int)c->c.lo, ma);
             } else {
                 for (size_t k = 0; k < nl; k++)
-                    g_store(o, k, g_unary(op, c->c, g_load(a, k)));
+                    g_store(o, k, g_unary(op, c->c, g_load(&a, k)));
+                g_own(&out);
             }
             break;
-        case TAPE_ADD: g_lanes_add(o, a, b, nl, 1, ma, mb); break;
-        case TAPE_SUB: g_lanes_add(o, a, b, nl, -1, ma, mb); break;
-        case TAPE_MUL: g_lanes_mul(o, a, b, nl, ma, mb); break;
-        case TAPE_DIV: G_LANES_BINARY(g_div); break;
-        case TAPE_MIN: G_LANES_BINARY(g_min); break;
-        case TAPE_MAX: G_LANES_BINARY(g_max); break;
+        case TAPE_ADD: g_lanes_add(&out, &a, &b, sa, sb, nl, 1, ma, mb); break;
+        case TAPE_SUB: g_lanes_add(&out, &a, &b, sa, sb, nl, -1, ma, mb); break;
+        case TAPE_MUL: g_lanes_mul(&out, &a, &b, nl, ma, mb); break;
+        case TAPE_DIV:
+            for (size_t k = 0; k < nl; k++)
+                g_store(o, k, g_div(g_load(&a, k), g_load(&b, k)));
+            g_own(&out);
+            break;
+        case TAPE_MIN: g_lanes_select(&out, &a, &b, nl, 0); break;
+        case TAPE_MAX: g_lanes_select(&out, &a, &b, nl, 1); break;
         case TAPE_OP_COUNT: break;
         default:
             for (size_t k = 0; k < nl; k++)
-                g_store(o, k, g_unary(op, c->c, g_load(a, k)));
+                g_store(o, k, g_unary(op, c->c, g_load(&a, k)));
+            g_own(&out);
             break;
         }
     }

@@ -20,7 +20,7 @@ struct tape_ws {
     uint32_t max_clauses;
     double *point;      /* max_clauses * B */
     double *lo, *hi;    /* max_clauses * B each */
-    double *grad;       /* (max_clauses + 1) * G_ARRAYS * B (also the ray pass's R_ARRAYS) */
+    double *grad;       /* (max_clauses + 2) * G_ARRAYS * B (also the ray pass's R_ARRAYS) */
     uint32_t *gsrc;     /* 3 * max_clauses: where the gradient pass's partials live */
     double *in;         /* 12 * B: the inputs of a pass (the ray pass's directions and
                            rounding radii in the second half) */
@@ -39,7 +39,7 @@ tape_ws_t *tape_ws_new(uint32_t max_clauses)
     ws->point = malloc(n * B * sizeof *ws->point);
     ws->lo = malloc(n * B * sizeof *ws->lo);
     ws->hi = malloc(n * B * sizeof *ws->hi);
-    ws->grad = malloc((n + 1) * G_ARRAYS * B * sizeof *ws->grad);
+    ws->grad = malloc((n + 2) * G_ARRAYS * B * sizeof *ws->grad);
     ws->gsrc = malloc(3 * n * sizeof *ws->gsrc);
     ws->in = malloc(12 * B * sizeof *ws->in);
     ws->deps = malloc(n);
@@ -55,7 +55,8 @@ size_t tape_ws_bytes(uint32_t max_clauses)
 {
     size_t n = max_clauses ? max_clauses : 1;
     return sizeof(struct tape_ws) + n * B * sizeof(double) * (3 + G_ARRAYS) +
-           G_ARRAYS * B * sizeof(double) + 3 * n * sizeof(uint32_t) + 12 * B * sizeof(double) + n;
+           2 * G_ARRAYS * B * sizeof(double) + 3 * n * sizeof(uint32_t) +
+           12 * B * sizeof(double) + n;
 }
 
 void tape_ws_free(tape_ws_t *ws)

@@ -46,7 +46,7 @@ typedef struct tape_kernels {
     void (*point)(const tape_t *t, double *S, size_t nl, kernel_in_t in);
     /* enclosures into LO, HI (slot i at + i * TAPE_BATCH) */
     void (*interval)(const tape_t *t, double *LO, double *HI, size_t nl, kernel_in_t in);
-    /* enclosures and gradients into G, t->n + 1 slots: array c of slot i at
+    /* enclosures and gradients into G, t->n + 2 slots: array c of slot i at
      * G + (i * G_ARRAYS + c) * TAPE_BATCH, the value's (c = G_VLO, G_VHI) in
      * slot i itself, partial j's (j = 1, 2, 3: dx, dy, dz) in slot src[3 i + j - 1]
      * (kernels.h says why); deps[i]: the variables clause i depends on (bit 0

@@ -199,27 +199,36 @@ static inline void K(point_n)(const tape_t *t, double *S, size_t nl, kernel_in_t
  * 1, 2, 3: dx, dy, dz) in the arrays of component c of the slot src[3 i + c - 1]
  * names: its own when the clause computes it, an operand's when the partial
  * is that operand's unchanged (a sum with an operand that has no such
- * partial, a constant subtracted), and the zero slot (just past the tape,
- * zeroed once a pass) when it is exactly [0, 0].  So a sum of terms in other
- * variables (the CSG scenes' spheres) or a constant added copies nothing and
- * writes no zeros.  The values are the same as copies: reading a partial where
- * it lives is reading what a copy would hold. */
+ * partial, a constant subtracted), the zero slot (just past the tape,
+ * zeroed once a pass) when it is exactly [0, 0], and the unit slot (after it,
+ * its partials set to 1 once a pass) when it is exactly [1, 1] (a variable's
+ * own, and the sums that carry it).  So a sum of terms in other variables (the
+ * CSG scenes' spheres) or a constant added copies nothing and writes no zeros.
+ * Reading a partial where it lives is reading what a copy would hold.  A
+ * factor [1, 1] is skipped: the product rule of s x (s x^(n-1) of a power,
+ * x y, c x) takes s, y, c as they are, where iv_mul would have widened them by
+ * its rounding. */
 
 /* A slot as an operand: p[0] its value's lower bounds, p[c] the lower bounds
- * of its partial c; each upper bound array B doubles after. */
+ * of its partial c; each upper bound array B doubles after; bit c - 1 of unit
+ * set when partial c is exactly [1, 1] (it lives in the unit slot). */
 typedef struct gview {
     const double *p[4];
+    unsigned unit;
 } gview_t;
 
 #define GSLOT(G, s) ((G) + (size_t)(s) * G_ARRAYS * B)
 #define GLO(p, c) ((p) + (size_t)(2 * (c)) * B)
 #define GHI(p, c) ((p) + (size_t)(2 * (c) + 1) * B)
 
-static inline gview_t g_view(const double *G, const uint32_t *src, uint32_t s)
+static inline gview_t g_view(const double *G, const uint32_t *src, uint32_t s, uint32_t one)
 {
-    gview_t v = {{GSLOT(G, s), NULL, NULL, NULL}};
-    for (int c = 1; c < 4; c++)
-        v.p[c] = GLO(GSLOT(G, src[3 * (size_t)s + (size_t)c - 1]), c);
+    gview_t v = {{GSLOT(G, s), NULL, NULL, NULL}, 0};
+    for (int c = 1; c < 4; c++) {
+        uint32_t at = src[3 * (size_t)s + (size_t)c - 1];
+        v.p[c] = GLO(GSLOT(G, at), c);
+        v.unit |= (unsigned)(at == one) << (c - 1);
+    }
     return v;
 }
 
@@ -317,6 +326,22 @@ static void g_lanes_add(const gout_t *out, const gview_t *a, const gview_t *b,
     }
 }
 
+/* o = p q lane by lane; q itself when p_unit (p is [1, 1]) */
+static void lanes_mul(double *restrict ol, double *restrict oh, const double *pl,
+                      const double *ph, const double *ql, const double *qh, int p_unit,
+                      size_t nl)
+{
+    if (p_unit) {
+        memcpy(ol, ql, nl * sizeof *ol);
+        memcpy(oh, qh, nl * sizeof *oh);
+        return;
+    }
+    for (size_t k = 0; k < nl; k++) {
+        iv_t v = iv_mul(IV(pl, ph, k), IV(ql, qh, k));
+        ol[k] = v.lo, oh[k] = v.hi;
+    }
+}
+
 /* the partials of o = s * the partials of a (g_scale; o's value is set by
  * the caller); ma: a's mask */
 static void g_lanes_scale(const gout_t *out, const double *sl, const double *sh,
@@ -327,34 +352,36 @@ static void g_lanes_scale(const gout_t *out, const double *sl, const double *sh,
             out->src[c - 1] = out->zero;
             continue;
         }
-        double *restrict ol = GLO(out->o, c), *restrict oh = GHI(out->o, c);
+        double *ol = GLO(out->o, c), *oh = GHI(out->o, c);
         const double *al = a->p[c], *ah = al + B;
-        for (size_t k = 0; k < nl; k++) {
-            iv_t r = iv_mul(IV(sl, sh, k), IV(al, ah, k));
-            ol[k] = r.lo, oh[k] = r.hi;
-        }
         out->src[c - 1] = out->self;
+        if (HAS(a->unit, c))
+            lanes_mul(ol, oh, al, ah, sl, sh, 1, nl); /* s itself */
+        else
+            lanes_mul(ol, oh, sl, sh, al, ah, 0, nl);
     }
 }
 
 /* o = p q + r s lane by lane (fm_mul_add: the product rule a' b + a b') in three
- * loops: in one, gcc gives up on vectorising */
+ * loops (in one, gcc gives up on vectorising); a factor p or s that is [1, 1]
+ * (p_unit, s_unit) is skipped */
 static void lanes_mul_add(double *restrict ol, double *restrict oh, const double *pl,
                           const double *ph, const double *ql, const double *qh,
                           const double *rl, const double *rh, const double *sl,
-                          const double *sh, size_t nl)
+                          const double *sh, int p_unit, int s_unit, size_t nl)
 {
     double al[B], ah[B], bl[B], bh[B];
-    for (size_t k = 0; k < nl; k++) {
-        iv_t v = iv_mul(IV(pl, ph, k), IV(ql, qh, k));
-        al[k] = v.lo, ah[k] = v.hi;
+    const double *xl = ql, *xh = qh, *yl = rl, *yh = rh;
+    if (!p_unit) {
+        lanes_mul(al, ah, pl, ph, ql, qh, 0, nl);
+        xl = al, xh = ah;
     }
-    for (size_t k = 0; k < nl; k++) {
-        iv_t v = iv_mul(IV(rl, rh, k), IV(sl, sh, k));
-        bl[k] = v.lo, bh[k] = v.hi;
+    if (!s_unit) {
+        lanes_mul(bl, bh, rl, rh, sl, sh, 0, nl);
+        yl = bl, yh = bh;
     }
     for (size_t k = 0; k < nl; k++)
-        ol[k] = iv_add_down(al[k], bl[k]), oh[k] = iv_add_up(ah[k], bh[k]);
+        ol[k] = iv_add_down(xl[k], yl[k]), oh[k] = iv_add_up(xh[k], yh[k]);
 }
 
 /* the product rule (g_mul); a partial of one operand alone is a single
@@ -372,16 +399,17 @@ static void g_lanes_mul(const gout_t *out, const gview_t *a, const gview_t *b, s
                 out->src[c - 1] = out->zero;
                 continue;
             }
-            /* a' b or a b' */
-            const double *pl = HAS(ma, c) ? adl : avl, *ph = HAS(ma, c) ? adh : avh;
-            const double *ql = HAS(ma, c) ? bvl : bdl, *qh = HAS(ma, c) ? bvh : bdh;
-            for (size_t k = 0; k < nl; k++) {
-                iv_t r = iv_mul(IV(pl, ph, k), IV(ql, qh, k));
-                ol[k] = r.lo, oh[k] = r.hi;
-            }
+            /* a' b or a b' (b' = [1, 1]: a itself) */
+            if (HAS(ma, c))
+                lanes_mul(ol, oh, adl, adh, bvl, bvh, HAS(a->unit, c), nl);
+            else if (HAS(b->unit, c))
+                lanes_mul(ol, oh, bdl, bdh, avl, avh, 1, nl);
+            else
+                lanes_mul(ol, oh, avl, avh, bdl, bdh, 0, nl);
             continue;
         }
-        lanes_mul_add(ol, oh, adl, adh, bvl, bvh, avl, avh, bdl, bdh, nl);
+        lanes_mul_add(ol, oh, adl, adh, bvl, bvh, avl, avh, bdl, bdh, HAS(a->unit, c),
+                      HAS(b->unit, c), nl);
     }
     double *restrict ol = GLO(out->o, 0), *restrict oh = GHI(out->o, 0);
     for (size_t k = 0; k < nl; k++) {
@@ -471,25 +499,28 @@ static void g_own(const gout_t *out)
         out->src[c] = out->self;
 }
 
-/* G holds t->n + 1 slots: the last is the zero slot.  src: 3 t->n entries
- * (see the top of this section). */
+/* G holds t->n + 2 slots: the last two are the zero slot and the unit slot.
+ * src: 3 t->n entries (see the top of this section). */
 static void K(grad)(const tape_t *t, const uint8_t *deps, double *G, uint32_t *src, size_t nl,
                     kernel_in_t in)
 {
-    const uint32_t zero = t->n;
-    for (int j = G_XLO; j < G_ARRAYS; j++)
+    const uint32_t zero = t->n, one = t->n + 1;
+    for (int j = G_XLO; j < G_ARRAYS; j++) {
         memset(GSLOT(G, zero) + j * B, 0, nl * sizeof *G);
+        for (size_t k = 0; k < nl; k++)
+            GSLOT(G, one)[j * B + k] = 1.0;
+    }
     for (uint32_t i = 0; i < t->n; i++) {
         const tape_clause_t *c = &t->clauses[i];
         double *o = GSLOT(G, i);
         tape_op_t op = (tape_op_t)c->op;
         const int binary = tape_op_arity(op) == 2;
         const gout_t out = {o, src + 3 * (size_t)i, i, zero};
-        gview_t a = {{NULL, NULL, NULL, NULL}}, b = a;
+        gview_t a = {{NULL, NULL, NULL, NULL}, 0}, b = a;
         if (tape_op_arity(op) >= 1)
-            a = g_view(G, src, c->a);
+            a = g_view(G, src, c->a, one);
         if (binary)
-            b = g_view(G, src, c->b);
+            b = g_view(G, src, c->b, one);
         const uint32_t *sa = src + 3 * (size_t)c->a, *sb = binary ? src + 3 * (size_t)c->b : NULL;
         unsigned ma = deps[c->a], mb = binary ? deps[c->b] : 0;
         switch (op) {
@@ -505,10 +536,8 @@ static void K(grad)(const tape_t *t, const uint8_t *deps, double *G, uint32_t *s
             int axis = op - TAPE_X;
             memcpy(o + G_VLO * B, in[2 * axis], nl * sizeof *o);
             memcpy(o + G_VHI * B, in[2 * axis + 1], nl * sizeof *o);
-            for (size_t k = 0; k < nl; k++)
-                GLO(o, axis + 1)[k] = GHI(o, axis + 1)[k] = 1.0;
             for (int j = 0; j < 3; j++)
-                out.src[j] = j == axis ? i : zero;
+                out.src[j] = j == axis ? one : zero;
             break;
         }
         case TAPE_NEG:
@@ -883,7 +912,7 @@ static inline void K(ray_n)(const tape_t *t, double *R, size_t nl, kernel_in_t i
                 iv_t v = iv_mul(IV(avl, avh, k), IV(bvl, bvh, k));
                 vl[k] = v.lo, vh[k] = v.hi;
             }
-            lanes_mul_add(dl, dh, adl, adh, bvl, bvh, avl, avh, bdl, bdh, nl);
+            lanes_mul_add(dl, dh, adl, adh, bvl, bvh, avl, avh, bdl, bdh, 0, 0, nl);
             for (size_t k = 0; k < nl; k++)
                 m[k] = mag_add(mag_mul(am[k], mag_of(IV(bvl, bvh, k))),
                                mag_mul(mag_of(IV(avl, avh, k)), bm[k]));

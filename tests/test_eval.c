@@ -143,6 +143,38 @@ static void test_point_box_is_tight(void **state)
     tape_free(t);
 }
 
+/* A partial that is exactly [1, 1] (a variable's own, through sums) is not
+ * multiplied in: the partial of a product by a variable is the other factor
+ * itself, bit for bit, not that factor widened by iv_mul's rounding. */
+static void test_grad_skips_unit_factors(void **state)
+{
+    (void)state;
+    tape_t *t = compile("(x + 2) * y + 3 * z");
+    tape_ws_t *ws = tape_ws_new(t->n);
+    assert_non_null(ws);
+    enum { N = 100 };
+    iv_box_t box[N];
+    iv_grad_t g[N];
+    uint64_t rng = tu_seed(11);
+    for (int i = 0; i < N; i++) {
+        iv_t *axis[3] = {&box[i].x, &box[i].y, &box[i].z};
+        for (int k = 0; k < 3; k++) {
+            double a = 8 * tu_uniform(&rng) - 4, b = 8 * tu_uniform(&rng) - 4;
+            *axis[k] = (iv_t){a < b ? a : b, a < b ? b : a};
+        }
+    }
+    tape_eval_grad(t, ws, N, box, g);
+    for (int i = 0; i < N; i++) {
+        /* d/dx = y, d/dy = x + 2 (enclosed by the sum's rounding), d/dz = 3 */
+        iv_t x2 = iv_add(box[i].x, iv_point(2));
+        assert_true(g[i].dx.lo == box[i].y.lo && g[i].dx.hi == box[i].y.hi);
+        assert_true(g[i].dy.lo == x2.lo && g[i].dy.hi == x2.hi);
+        assert_true(g[i].dz.lo == 3 && g[i].dz.hi == 3);
+    }
+    tape_ws_free(ws);
+    tape_free(t);
+}
+
 /* Outside its domain f is empty; partly outside, the defined part is enclosed. */
 static void test_set_based_domains(void **state)
 {
@@ -208,6 +240,7 @@ int main(void)
         cmocka_unit_test(test_each_operation),
         cmocka_unit_test(test_batches_are_independent),
         cmocka_unit_test(test_point_box_is_tight),
+        cmocka_unit_test(test_grad_skips_unit_factors),
         cmocka_unit_test(test_set_based_domains),
         cmocka_unit_test(test_point_grad_conventions),
     };

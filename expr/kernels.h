@@ -205,9 +205,9 @@ static inline void K(point_n)(const tape_t *t, double *S, size_t nl, kernel_in_t
  * own, and the sums that carry it).  So a sum of terms in other variables (the
  * CSG scenes' spheres) or a constant added copies nothing and writes no zeros.
  * Reading a partial where it lives is reading what a copy would hold.  A
- * factor [1, 1] is skipped: the product rule of s x (s x^(n-1) of a power,
- * x y, c x) takes s, y, c as they are, where iv_mul would have widened them by
- * its rounding. */
+ * factor [1, 1] is skipped: where x' is [1, 1], the chain rule's s x' (s =
+ * n x^(n-1) for x^n, 2x for x^2) and the product rule's y x' (x y, c x) are s
+ * and y themselves, where iv_mul would widen them by its rounding. */
 
 /* A slot as an operand: p[0] its value's lower bounds, p[c] the lower bounds
  * of its partial c; each upper bound array B doubles after; bit c - 1 of unit

@@ -210,10 +210,12 @@ static inline void K(point_n)(const tape_t *t, double *S, size_t nl, kernel_in_t
  * and y themselves, where iv_mul would widen them by its rounding. */
 
 /* A slot as an operand: p[0] its value's lower bounds, p[c] the lower bounds
- * of its partial c; each upper bound array B doubles after; bit c - 1 of unit
- * set when partial c is exactly [1, 1] (it lives in the unit slot). */
+ * of its partial c; each upper bound array B doubles after; src its row of
+ * src (where its partials live); bit c - 1 of unit set when partial c is
+ * exactly [1, 1] (it lives in the unit slot). */
 typedef struct gview {
     const double *p[4];
+    const uint32_t *src;
     unsigned unit;
 } gview_t;
 
@@ -223,9 +225,9 @@ typedef struct gview {
 
 static inline gview_t g_view(const double *G, const uint32_t *src, uint32_t s, uint32_t one)
 {
-    gview_t v = {{GSLOT(G, s), NULL, NULL, NULL}, 0};
+    gview_t v = {{GSLOT(G, s), NULL, NULL, NULL}, src + 3 * (size_t)s, 0};
     for (int c = 1; c < 4; c++) {
-        uint32_t at = src[3 * (size_t)s + (size_t)c - 1];
+        uint32_t at = v.src[c - 1];
         v.p[c] = GLO(GSLOT(G, at), c);
         v.unit |= (unsigned)(at == one) << (c - 1);
     }
@@ -293,20 +295,18 @@ typedef struct gout {
     uint32_t self, zero;
 } gout_t;
 
-/* o = a + b, a - b (sign -1), componentwise; ma, mb the operands' masks, sa,
- * sb their rows of src */
-static void g_lanes_add(const gout_t *out, const gview_t *a, const gview_t *b,
-                        const uint32_t *sa, const uint32_t *sb, size_t nl, int sign, unsigned ma,
-                        unsigned mb)
+/* o = a + b, a - b (sign -1), componentwise; ma, mb the operands' masks */
+static void g_lanes_add(const gout_t *out, const gview_t *a, const gview_t *b, size_t nl,
+                        int sign, unsigned ma, unsigned mb)
 {
     for (int c = 0; c < 4; c++) {
         double *restrict ol = GLO(out->o, c), *restrict oh = GHI(out->o, c);
         const double *al = a->p[c], *ah = al + B, *bl = b->p[c], *bh = bl + B;
         if (c > 0 && !(HAS(ma, c) && HAS(mb, c))) {
             if (HAS(ma, c)) {
-                out->src[c - 1] = sa[c - 1];
+                out->src[c - 1] = a->src[c - 1];
             } else if (HAS(mb, c) && sign > 0) {
-                out->src[c - 1] = sb[c - 1];
+                out->src[c - 1] = b->src[c - 1];
             } else if (HAS(mb, c)) {
                 for (size_t k = 0; k < nl; k++) ol[k] = -bh[k], oh[k] = -bl[k];
                 out->src[c - 1] = out->self;
@@ -516,12 +516,11 @@ static void K(grad)(const tape_t *t, const uint8_t *deps, double *G, uint32_t *s
         tape_op_t op = (tape_op_t)c->op;
         const int binary = tape_op_arity(op) == 2;
         const gout_t out = {o, src + 3 * (size_t)i, i, zero};
-        gview_t a = {{NULL, NULL, NULL, NULL}, 0}, b = a;
+        gview_t a = {{NULL, NULL, NULL, NULL}, NULL, 0}, b = a;
         if (tape_op_arity(op) >= 1)
             a = g_view(G, src, c->a, one);
         if (binary)
             b = g_view(G, src, c->b, one);
-        const uint32_t *sa = src + 3 * (size_t)c->a, *sb = binary ? src + 3 * (size_t)c->b : NULL;
         unsigned ma = deps[c->a], mb = binary ? deps[c->b] : 0;
         switch (op) {
         case TAPE_CONST:
@@ -563,8 +562,8 @@ static void K(grad)(const tape_t *t, const uint8_t *deps, double *G, uint32_t *s
                 g_own(&out);
             }
             break;
-        case TAPE_ADD: g_lanes_add(&out, &a, &b, sa, sb, nl, 1, ma, mb); break;
-        case TAPE_SUB: g_lanes_add(&out, &a, &b, sa, sb, nl, -1, ma, mb); break;
+        case TAPE_ADD: g_lanes_add(&out, &a, &b, nl, 1, ma, mb); break;
+        case TAPE_SUB: g_lanes_add(&out, &a, &b, nl, -1, ma, mb); break;
         case TAPE_MUL: g_lanes_mul(&out, &a, &b, nl, ma, mb); break;
         case TAPE_DIV:
             for (size_t k = 0; k < nl; k++)

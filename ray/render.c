@@ -367,11 +367,32 @@ static void tracer_search(tracer_t *tr)
     tr->nq = m;
 }
 
-/* The next segment of the ray, front to back: searched once BATCH wait. */
+/* The next segment of the ray, front to back: searched once BATCH wait.
+ *
+ * A ray that asks only whether there is a root (any: a shadow ray) searches
+ * a run of segments as one: the search of [t_in, t_out] of the run proves a
+ * root only where f has one, and misses none, whatever lies between its
+ * leaves.  Most of a lit shadow ray's run hugs the surface near q, where f
+ * along the ray is monotone: one pass over the run excludes it, where one
+ * per leaf did.  A segment joins the run when it has the run's tape and
+ * starts where the run ends or, with the scene's own tape (equal to f
+ * everywhere), after a gap no longer than the run: longer gaps widen the
+ * run's enclosures more than they save.  (A pruned leaf tape equals f on
+ * its leaf only: its runs stay contiguous.)  Primary rays keep their
+ * segments: their search must place the first root, and bisects a run again
+ * (measured: 0–8 % more instructions on the sphere and McMullen's K3). */
 static void tracer_offer(tracer_t *tr, const ray_segment_t *seg)
 {
     if (tr->stop || !(seg->t_in < tr->t_max))
         return;
+    ray_segment_t *run = tr->nq > 0 ? &tr->q[tr->nq - 1] : NULL;
+    if (tr->any && run && seg->tape == run->tape &&
+        (seg->t_in <= run->t_out ||
+         (!seg->tape && seg->t_in - run->t_out <= run->t_out - run->t_in))) {
+        if (seg->t_out > run->t_out)
+            run->t_out = seg->t_out;
+        return;
+    }
     tr->q[tr->nq++] = *seg;
     while (tr->nq == BATCH && !tr->stop)
         tracer_search(tr);
@@ -400,6 +421,36 @@ static void trace(const tape_t *tape, tape_ws_t *ws, const ray_source_t *src, vo
     }
     tracer_finish(&tr);
     *best = tr.best;
+}
+
+/* The piece of a shadow ray just before q that render_tile searches first
+ * (o = p0, t in [0, w]), for a root (opts->roots.any_root).  With the scene's
+ * own tape on every leaf (the octree without leaf tapes), the piece is
+ * searched as one segment, clipped to the tree's box, without the walk down
+ * to its leaf: the tape equals f everywhere, so the search proves a root
+ * only where f has one, and the piece is so short (2^-16 t) that it nearly
+ * always lies in q's leaf, whose segment the walk would have yielded.  Else
+ * (leaf tapes, other sources) the walk finds the leaves and their tapes. */
+static void attached_piece(const tape_t *tape, tape_ws_t *ws, const ray_source_t *src,
+                           void *state, const ray_render_opts_t *opts, const double p0[3],
+                           const double d[3], double w, ray_result_t *res, counters_t *cnt)
+{
+    const ray_octree_source_t *os = ray_source_octree(src);
+    if (!os || os->tapes || !os->tree) {
+        trace(tape, ws, src, state, opts, p0, d, w, 1, res, cnt);
+        return;
+    }
+    double t0, t1;
+    *res = (ray_result_t){RAY_MISS, NAN, NAN, NAN, 0, 0};
+    if (!ray_clip_box(os->tree->box, p0, d, &t0, &t1))
+        return;
+    t0 = t0 > 0 ? t0 : 0;
+    t1 = t1 < w ? t1 : w;
+    if (!(t0 <= t1))
+        return;
+    ray_find_root(tape, ws, opts->method, &opts->roots, p0, d, t0, t1, res);
+    cnt->evals += res->evals;
+    cnt->segments++;
 }
 
 /* ---- packets --------------------------------------------------------------------------
@@ -635,7 +686,7 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
             if (dot3(n, to_light) * dot3(n, img->dir + 3 * i) > 0 && w < 0.5) {
                 double p0[3];
                 ray_point(opts->light, ds[k], 1 - w, p0);
-                trace(tape, ws, src, state, &shadow_opts, p0, ds[k], w, 1, &sr[k], &sc);
+                attached_piece(tape, ws, src, state, &shadow_opts, p0, ds[k], w, &sr[k], &sc);
                 if (sr[k].kind != RAY_HIT_ROOT)
                     sr[k].kind = RAY_MISS;
             }

@@ -67,18 +67,25 @@ endif()
 #     instrumentation, and clang warns about it.
 function(ivoct_simd_kernels target stem)
     foreach(path IN LISTS IVOCT_SIMD_PATHS)
-        set(src ${CMAKE_CURRENT_SOURCE_DIR}/${stem}_${path}.c)
-        target_sources(${target} PRIVATE ${src})
-        set_property(SOURCE ${src} APPEND PROPERTY COMPILE_OPTIONS "-fno-trapping-math"
-            "$<$<C_COMPILER_ID:GNU>:--param=max-inline-insns-single=2000;--param=inline-unit-growth=400;--param=large-function-growth=1000>"
-            "$<$<C_COMPILER_ID:Clang>:-Wno-pass-failed>")
+        ivoct_simd_kernel_source(${target} ${CMAKE_CURRENT_SOURCE_DIR}/${stem}_${path}.c ${path})
     endforeach()
     if("avx2" IN_LIST IVOCT_SIMD_PATHS)
         target_compile_definitions(${target} PRIVATE IVOCT_SIMD_X86)
-        set_property(SOURCE ${CMAKE_CURRENT_SOURCE_DIR}/${stem}_avx2.c APPEND
-            PROPERTY COMPILE_OPTIONS "-mavx2")
-        set_property(SOURCE ${CMAKE_CURRENT_SOURCE_DIR}/${stem}_avx512.c APPEND
-            PROPERTY COMPILE_OPTIONS
+    endif()
+endfunction()
+
+# ivoct_simd_kernel_source(<target> <source> <path>)
+# Adds one source to <target>, compiled with the flags of SIMD path <path>
+# (above): for a unit of a path's passes beside <stem>_<path>.c.
+function(ivoct_simd_kernel_source target src path)
+    target_sources(${target} PRIVATE ${src})
+    set_property(SOURCE ${src} APPEND PROPERTY COMPILE_OPTIONS "-fno-trapping-math"
+        "$<$<C_COMPILER_ID:GNU>:--param=max-inline-insns-single=2000;--param=inline-unit-growth=400;--param=large-function-growth=1000>"
+        "$<$<C_COMPILER_ID:Clang>:-Wno-pass-failed>")
+    if(path STREQUAL "avx2")
+        set_property(SOURCE ${src} APPEND PROPERTY COMPILE_OPTIONS "-mavx2")
+    elseif(path STREQUAL "avx512")
+        set_property(SOURCE ${src} APPEND PROPERTY COMPILE_OPTIONS
             "-mavx512f;-mavx512dq;-mavx512vl;-mavx512bw;-mprefer-vector-width=512")
     endif()
 endfunction()

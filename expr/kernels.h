@@ -1021,70 +1021,114 @@ static inline void K(ray_inputs_n)(size_t nl, const double o[3], const double d[
 #ifndef KERNEL_SHORT_LANES
 #error "kernels_<target>.c defines KERNEL_SHORT_LANES: 0 or KERNEL_ALIGN (see tape_kernels_t)"
 #endif
-#if KERNEL_SHORT_LANES
+/* The short passes compiled apart: KERNEL_SHORT_APART (kernels_<target>.c) says
+ * that they are defined, with external linkage, in a unit of their own,
+ * kernels_<target>short.c, which defines KERNEL_SHORT_UNIT too and gets only
+ * them.  That unit is compiled with the flag that keeps gcc from unrolling
+ * their 8-iteration loops into scalar code (expr/CMakeLists.txt), and the
+ * general passes are not: on avx2 the flag made the 64-lane point pass 1.3x
+ * slower (chubs).  Otherwise they are static, here. */
+#ifndef KERNEL_SHORT_APART
+#define KERNEL_SHORT_APART 0
+#endif
+#ifndef KERNEL_SHORT_UNIT
+#define KERNEL_SHORT_UNIT 0
+#endif
+#if KERNEL_SHORT_UNIT && !KERNEL_SHORT_APART
+#error "kernels_<target>short.c defines KERNEL_SHORT_APART too"
+#endif
+#if KERNEL_SHORT_APART
+#define KERNEL_SHORT_LINKAGE
+#else
+#define KERNEL_SHORT_LINKAGE static
+#endif
+/* Here: the short passes' bodies (else only their declarations). */
+#define KERNEL_SHORT_HERE (!KERNEL_SHORT_APART || KERNEL_SHORT_UNIT)
 #if defined(__GNUC__)
 #define KERNEL_FLATTEN __attribute__((flatten))
 #else
 #define KERNEL_FLATTEN
 #endif
+#if KERNEL_SHORT_LANES
+#if KERNEL_SHORT_APART
+void K(point_short)(const tape_t *t, double *S, kernel_in_t in);
+void K(interval_short)(const tape_t *t, double *LO, double *HI, kernel_in_t in);
+void K(ray_short)(const tape_t *t, double *R, kernel_in_t in, kernel_in_t dir_rho);
+void K(ray_inputs_short)(const double o[3], const double d[3], const double *tl,
+                         const double *th, double *in);
+#endif
+#if KERNEL_SHORT_HERE
 
-KERNEL_FLATTEN static void K(point_short)(const tape_t *t, double *S, kernel_in_t in)
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(point_short)(const tape_t *t, double *S, kernel_in_t in)
 {
     K(point_n)(t, S, KERNEL_SHORT_LANES, in);
 }
 
-KERNEL_FLATTEN static void K(interval_short)(const tape_t *t, double *LO, double *HI,
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(interval_short)(const tape_t *t, double *LO, double *HI,
                                              kernel_in_t in)
 {
     K(interval_n)(t, LO, HI, KERNEL_SHORT_LANES, in);
 }
 
-KERNEL_FLATTEN static void K(ray_short)(const tape_t *t, double *R, kernel_in_t in,
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(ray_short)(const tape_t *t, double *R, kernel_in_t in,
                                         kernel_in_t dir_rho)
 {
     K(ray_n)(t, R, KERNEL_SHORT_LANES, in, dir_rho);
 }
 
-KERNEL_FLATTEN static void K(ray_inputs_short)(const double o[3], const double d[3],
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(ray_inputs_short)(const double o[3], const double d[3],
                                                const double *tl, const double *th, double *in)
 {
     K(ray_inputs_n)(KERNEL_SHORT_LANES, o, d, tl, th, in);
 }
-#endif
+#endif /* KERNEL_SHORT_HERE */
+#endif /* KERNEL_SHORT_LANES */
 
-/* Half a short batch.  Where KERNEL_SHORT_HALF is not 0 (kernels_avx512.c), the
- * same passes also exist for exactly that many lanes, half a vector, and eval.c
- * pads a batch of at most that many to it: a CPU that runs a 512-bit operation
- * as two 256-bit halves (AMD's Zen 4) runs such a pass in less time than the
- * whole vector's (three quarters, measured: expr/README.md).  The lanes are
+/* Half a short batch.  Where KERNEL_SHORT_HALF is not 0 (kernels_avx512.c,
+ * kernels_avx2.c), the same passes also exist for exactly that many lanes, and
+ * eval.c pads a batch of at most that many to it: on avx2 one 256-bit vector
+ * instead of two; on avx512 half a vector, which a CPU that runs a 512-bit
+ * operation as two 256-bit halves (AMD's Zen 4) runs in less time than the
+ * whole one (three quarters, measured: expr/README.md).  The lanes are
  * independent: the bits are the same. */
 #ifndef KERNEL_SHORT_HALF
 #error "kernels_<target>.c defines KERNEL_SHORT_HALF: 0 or half of KERNEL_SHORT_LANES"
 #endif
 #if KERNEL_SHORT_HALF
-KERNEL_FLATTEN static void K(point_half)(const tape_t *t, double *S, kernel_in_t in)
+#if KERNEL_SHORT_APART
+void K(point_half)(const tape_t *t, double *S, kernel_in_t in);
+void K(interval_half)(const tape_t *t, double *LO, double *HI, kernel_in_t in);
+void K(ray_half)(const tape_t *t, double *R, kernel_in_t in, kernel_in_t dir_rho);
+void K(ray_inputs_half)(const double o[3], const double d[3], const double *tl,
+                        const double *th, double *in);
+#endif
+#if KERNEL_SHORT_HERE
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(point_half)(const tape_t *t, double *S, kernel_in_t in)
 {
     K(point_n)(t, S, KERNEL_SHORT_HALF, in);
 }
 
-KERNEL_FLATTEN static void K(interval_half)(const tape_t *t, double *LO, double *HI,
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(interval_half)(const tape_t *t, double *LO, double *HI,
                                             kernel_in_t in)
 {
     K(interval_n)(t, LO, HI, KERNEL_SHORT_HALF, in);
 }
 
-KERNEL_FLATTEN static void K(ray_half)(const tape_t *t, double *R, kernel_in_t in,
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(ray_half)(const tape_t *t, double *R, kernel_in_t in,
                                        kernel_in_t dir_rho)
 {
     K(ray_n)(t, R, KERNEL_SHORT_HALF, in, dir_rho);
 }
 
-KERNEL_FLATTEN static void K(ray_inputs_half)(const double o[3], const double d[3],
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(ray_inputs_half)(const double o[3], const double d[3],
                                               const double *tl, const double *th, double *in)
 {
     K(ray_inputs_n)(KERNEL_SHORT_HALF, o, d, tl, th, in);
 }
-#endif
+#endif /* KERNEL_SHORT_HERE */
+#endif /* KERNEL_SHORT_HALF */
+
+#if !KERNEL_SHORT_UNIT /* the short unit has the short passes only */
 
 static void K(point)(const tape_t *t, double *S, size_t nl, kernel_in_t in)
 {
@@ -1159,3 +1203,4 @@ const tape_kernels_t K(tape_kernels) = {KSTR(KERNEL_TARGET), K(point),      K(in
                                         K(grad),             K(point_grad), K(ray),
                                         K(ray_inputs),       KERNEL_SHORT_LANES,
                                         KERNEL_SHORT_HALF};
+#endif /* !KERNEL_SHORT_UNIT */

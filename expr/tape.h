@@ -129,8 +129,8 @@ int tape_simd_available(const char *name);   /* does this build and CPU run it? 
 int tape_simd_select(const char *name, ivoct_error_t *err);
 /* Short batches on the path in use: a call of tape_eval_point,
  * tape_eval_interval or tape_eval_ray with at most this many boxes costs at
- * most one pass of exactly this many (the path pads them; avx512 runs 1 to 4
- * boxes as a pass of 4, a little cheaper); 0 when the cost of a call grows
+ * most one pass of exactly this many (the path pads them; avx2 and avx512 run
+ * 1 to 4 boxes as a pass of 4, cheaper); 0 when the cost of a call grows
  * with its boxes down to one.  A caller that asks for a few boxes at a time
  * can fill the rest for free. */
 size_t tape_short_lanes(void);

@@ -2,7 +2,8 @@
  *
  * Included once by each kernels_<target>.c, which defines KERNEL_TARGET and is
  * compiled with that target's flags; everything here is static except the
- * table tape_kernels_<target>.  Each clause runs one loop over the lanes; the
+ * table tape_kernels_<target> (and the short passes where they are compiled
+ * apart: KERNEL_SHORT_APART below).  Each clause runs one loop over the lanes; the
  * cheap interval operations (add, sub, mul, sqr, min, max, abs, integer
  * powers) are inline and branch-free, so the compiler vectorises those loops
  * at the target's width; the others call the scalar iv_ functions lane by
@@ -1025,7 +1026,7 @@ static inline void K(ray_inputs_n)(size_t nl, const double o[3], const double d[
  * that they are defined, with external linkage, in a unit of their own,
  * kernels_<target>short.c, which defines KERNEL_SHORT_UNIT too and gets only
  * them.  That unit is compiled with the flag that keeps gcc from unrolling
- * their 8-iteration loops into scalar code (expr/CMakeLists.txt), and the
+ * their 4- and 8-iteration loops into scalar code (expr/CMakeLists.txt), and the
  * general passes are not: on avx2 the flag made the 64-lane point pass 1.3x
  * slower (chubs).  Otherwise they are static, here. */
 #ifndef KERNEL_SHORT_APART
@@ -1059,25 +1060,27 @@ void K(ray_inputs_short)(const double o[3], const double d[3], const double *tl,
 #endif
 #if KERNEL_SHORT_HERE
 
-KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(point_short)(const tape_t *t, double *S, kernel_in_t in)
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void
+K(point_short)(const tape_t *t, double *S, kernel_in_t in)
 {
     K(point_n)(t, S, KERNEL_SHORT_LANES, in);
 }
 
-KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(interval_short)(const tape_t *t, double *LO, double *HI,
-                                             kernel_in_t in)
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void
+K(interval_short)(const tape_t *t, double *LO, double *HI, kernel_in_t in)
 {
     K(interval_n)(t, LO, HI, KERNEL_SHORT_LANES, in);
 }
 
-KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(ray_short)(const tape_t *t, double *R, kernel_in_t in,
-                                        kernel_in_t dir_rho)
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void
+K(ray_short)(const tape_t *t, double *R, kernel_in_t in, kernel_in_t dir_rho)
 {
     K(ray_n)(t, R, KERNEL_SHORT_LANES, in, dir_rho);
 }
 
-KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(ray_inputs_short)(const double o[3], const double d[3],
-                                               const double *tl, const double *th, double *in)
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void
+K(ray_inputs_short)(const double o[3], const double d[3],
+                    const double *tl, const double *th, double *in)
 {
     K(ray_inputs_n)(KERNEL_SHORT_LANES, o, d, tl, th, in);
 }
@@ -1103,25 +1106,27 @@ void K(ray_inputs_half)(const double o[3], const double d[3], const double *tl,
                         const double *th, double *in);
 #endif
 #if KERNEL_SHORT_HERE
-KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(point_half)(const tape_t *t, double *S, kernel_in_t in)
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void
+K(point_half)(const tape_t *t, double *S, kernel_in_t in)
 {
     K(point_n)(t, S, KERNEL_SHORT_HALF, in);
 }
 
-KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(interval_half)(const tape_t *t, double *LO, double *HI,
-                                            kernel_in_t in)
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void
+K(interval_half)(const tape_t *t, double *LO, double *HI, kernel_in_t in)
 {
     K(interval_n)(t, LO, HI, KERNEL_SHORT_HALF, in);
 }
 
-KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(ray_half)(const tape_t *t, double *R, kernel_in_t in,
-                                       kernel_in_t dir_rho)
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void
+K(ray_half)(const tape_t *t, double *R, kernel_in_t in, kernel_in_t dir_rho)
 {
     K(ray_n)(t, R, KERNEL_SHORT_HALF, in, dir_rho);
 }
 
-KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void K(ray_inputs_half)(const double o[3], const double d[3],
-                                              const double *tl, const double *th, double *in)
+KERNEL_FLATTEN KERNEL_SHORT_LINKAGE void
+K(ray_inputs_half)(const double o[3], const double d[3],
+                   const double *tl, const double *th, double *in)
 {
     K(ray_inputs_n)(KERNEL_SHORT_HALF, o, d, tl, th, in);
 }

@@ -425,9 +425,9 @@ static void trace(const tape_t *tape, tape_ws_t *ws, const ray_source_t *src, vo
 
 /* The piece of a shadow ray just before q that render_tile searches first
  * (o = p0, t in [0, w]), for a root (opts->roots.any_root).  With the scene's
- * own tape on every leaf (the octree without leaf tapes), the piece is
- * searched as one segment, clipped to the tree's box, without the walk down
- * to its leaf: the tape equals f everywhere, so the search proves a root
+ * own tape on every leaf (the octree without leaf tapes), the piece goes
+ * through the box source of the tree's box, one segment, instead of the walk
+ * down to its leaf: the tape equals f everywhere, so the search proves a root
  * only where f has one, and the piece is so short (2^-16 t) that it nearly
  * always lies in q's leaf, whose segment the walk would have yielded.  Else
  * (leaf tapes, other sources) the walk finds the leaves and their tapes. */
@@ -436,21 +436,14 @@ static void attached_piece(const tape_t *tape, tape_ws_t *ws, const ray_source_t
                            const double d[3], double w, ray_result_t *res, counters_t *cnt)
 {
     const ray_octree_source_t *os = ray_source_octree(src);
-    if (!os || os->tapes || !os->tree) {
+    if (os && os->tree && !os->tapes) {
+        ray_box_source_t bs;
+        box_state_t bst;
+        ray_source_t box = ray_box_source(&bs, os->tree->box);
+        trace(tape, ws, &box, &bst, opts, p0, d, w, 1, res, cnt);
+    } else {
         trace(tape, ws, src, state, opts, p0, d, w, 1, res, cnt);
-        return;
     }
-    double t0, t1;
-    *res = (ray_result_t){RAY_MISS, NAN, NAN, NAN, 0, 0};
-    if (!ray_clip_box(os->tree->box, p0, d, &t0, &t1))
-        return;
-    t0 = t0 > 0 ? t0 : 0;
-    t1 = t1 < w ? t1 : w;
-    if (!(t0 <= t1))
-        return;
-    ray_find_root(tape, ws, opts->method, &opts->roots, p0, d, t0, t1, res);
-    cnt->evals += res->evals;
-    cnt->segments++;
 }
 
 /* ---- packets --------------------------------------------------------------------------

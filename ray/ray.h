@@ -329,7 +329,10 @@ typedef struct ray_stats {
     uint64_t tangent_hits; /* hits of kind RAY_HIT_TANGENT or RAY_HIT_BUDGET */
     uint64_t tape_evals;   /* tape passes (see ray_result_t.evals), shading included */
     uint64_t segments;     /* segments the root finder ran on */
-    uint64_t leaves;       /* what the sources counted */
+    uint64_t leaves;       /* what the sources counted: the leaves yielded, every
+                            * one searched but those a primary ray's walk yields
+                            * (up to 4) while its hit's refinement is set aside,
+                            * overlapping the hit's bracket by rounding (render.c) */
     /* with a light: shadow rays cast (one per hit), their outcomes (the rest
      * are lit), and the tape passes and source segments they took (part of
      * tape_evals, segments and leaves above) */

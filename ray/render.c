@@ -8,6 +8,7 @@
 #include <omp.h>
 
 #include "beam_internal.h"
+#include "roots_internal.h"
 
 #define TILE RAY_TILE
 
@@ -292,8 +293,23 @@ double ray_shadow_origin(const double eye[3], const double d[3], double t, doubl
  *
  * A tracer is that search in progress, fed one segment at a time: trace()
  * pulls the segments from a source, a packet walk (traverse.c) pushes them,
- * and the searches are the same either way. */
+ * and the searches are the same either way.
+ *
+ * A primary ray's tracer may set the refinement of its first hit aside
+ * (job: see ray_find_root_defer) for trace_rays to run with those of the
+ * other rays of the tile, side by side (refine_batch).  Until then the hit
+ * is known to lie in [t_lo, t_hi] and t_max is t_hi, and the segments of
+ * the search stay waiting: which of them are searched again depends on the
+ * hit.  A segment offered meanwhile is dropped when it starts at or after
+ * t_hi, as it would be after the hit; else (it overlaps the hit's segment by
+ * rounding) it waits too, up to LATE_MAX of them, a further one has the
+ * refinement run at once.  Once the hit is known (tracer_settle) the
+ * segments waiting go on as they would have gone, and those offered
+ * meanwhile are offered again.  So every search, hit and count but the
+ * leaves the walk yields up to t_hi is what it would be with the refinement
+ * run at once. */
 #define BATCH 2
+#define LATE_MAX 4
 typedef struct tracer {
     const tape_t *tape;
     tape_ws_t *ws;
@@ -306,6 +322,13 @@ typedef struct tracer {
     ray_segment_t q[BATCH];
     ray_result_t best;
     counters_t *cnt;
+    int defer;           /* the refinement of the first hit may be set aside */
+    int pending;         /* it is, in job */
+    refine_job_t job;
+    int ns;              /* the segments of its search, as searched */
+    double s0[BATCH], s1[BATCH];
+    int nlate;           /* segments offered meanwhile, offered again once settled */
+    ray_segment_t late[LATE_MAX];
 } tracer_t;
 
 /* The roots wanted are those before t_end (INFINITY for a primary ray, 1 for
@@ -313,7 +336,7 @@ typedef struct tracer {
  * (a shadow ray asks whether there is a root, not where the first one is). */
 static void tracer_init(tracer_t *tr, const tape_t *tape, tape_ws_t *ws,
                         const ray_render_opts_t *opts, const double eye[3], const double d[3],
-                        double t_end, int any, counters_t *cnt)
+                        double t_end, int any, int defer, counters_t *cnt)
 {
     memset(tr, 0, sizeof *tr);
     tr->tape = tape;
@@ -325,6 +348,43 @@ static void tracer_init(tracer_t *tr, const tape_t *tape, tape_ws_t *ws,
     tr->t_max = t_end;
     tr->best = (ray_result_t){RAY_MISS, NAN, NAN, NAN, 0, 0};
     tr->cnt = cnt;
+    tr->defer = defer;
+}
+
+/* Keep the segments waiting from q[from] on that can still start before
+ * the best hit. */
+static void tracer_keep(tracer_t *tr, int from)
+{
+    int m = 0;
+    for (int j = from; j < tr->nq; j++)
+        if (tr->q[j].t_in < tr->t_max)
+            tr->q[m++] = tr->q[j];
+    tr->nq = m;
+}
+
+/* The refinement set aside has been run (job.out = &best): the hit is
+ * known, and the segments after the one that holds it are searched again up
+ * to it. */
+static void tracer_offer(tracer_t *tr, const ray_segment_t *seg);
+
+static void tracer_settle(tracer_t *tr)
+{
+    tr->pending = 0;
+    tr->t_max = tr->best.t;
+    tracer_keep(tr, ray_segment_of(tr->best.t_lo, tr->ns, tr->s0, tr->s1) + 1);
+    int late = tr->nlate;
+    tr->nlate = 0;
+    for (int j = 0; j < late; j++)
+        tracer_offer(tr, &tr->late[j]);
+}
+
+/* Run the refinement set aside now. */
+static void tracer_resolve(tracer_t *tr)
+{
+    refine_job_t *job = &tr->job;
+    job->out = &tr->best;
+    tr->cnt->evals += refine_batch(&job, 1, tr->ws);
+    tracer_settle(tr);
 }
 
 /* Search the leading segments waiting that share a tape (a batch shares one). */
@@ -340,10 +400,12 @@ static void tracer_search(tracer_t *tr)
         t1[j] = q[j].t_out < tr->t_max ? q[j].t_out : tr->t_max;
     }
     ray_result_t r;
-    int which;
+    int which, deferred;
     tr->cnt->segments += (uint64_t)k;
-    ray_find_root_n(q[0].tape ? q[0].tape : tr->tape, tr->ws, tr->opts->method,
-                    &tr->opts->roots, tr->eye, tr->d, k, t0, t1, &r, &which);
+    /* (set aside only as the first hit: a second one is compared by its t) */
+    ray_find_root_defer(q[0].tape ? q[0].tape : tr->tape, tr->ws, tr->opts->method,
+                        &tr->opts->roots, tr->eye, tr->d, k, t0, t1, &r, &which,
+                        tr->defer && tr->best.kind == RAY_MISS ? &tr->job : NULL, &deferred);
     tr->cnt->evals += r.evals;
     int done = k;
     if (r.kind != RAY_MISS && (tr->best.kind == RAY_MISS || r.t < tr->best.t)) {
@@ -352,19 +414,21 @@ static void tracer_search(tracer_t *tr)
             r.t_lo = tr->best.t_lo;
         tr->best = r;
         tr->t_max = r.t;
-        done = which + 1; /* those after it: searched again, up to the hit */
         if (tr->any) {
             tr->stop = 1;
             return;
         }
+        if (deferred) { /* the batch waits for the hit (tracer_settle) */
+            tr->pending = 1;
+            tr->ns = k;
+            memcpy(tr->s0, t0, sizeof t0);
+            memcpy(tr->s1, t1, sizeof t1);
+            return;
+        }
+        done = which + 1; /* those after it: searched again, up to the hit */
     }
-    /* keep what is left of the batch and was not searched, if it can still
-     * start before the best hit */
-    int m = 0;
-    for (int j = done; j < tr->nq; j++)
-        if (q[j].t_in < tr->t_max)
-            q[m++] = q[j];
-    tr->nq = m;
+    /* keep what is left of the batch and was not searched */
+    tracer_keep(tr, done);
 }
 
 /* The next segment of the ray, front to back: searched once BATCH wait.
@@ -385,6 +449,15 @@ static void tracer_offer(tracer_t *tr, const ray_segment_t *seg)
 {
     if (tr->stop || !(seg->t_in < tr->t_max))
         return;
+    if (tr->pending) {
+        if (tr->nlate < LATE_MAX) {
+            tr->late[tr->nlate++] = *seg;
+            return;
+        }
+        tracer_resolve(tr);
+        if (!(seg->t_in < tr->t_max))
+            return;
+    }
     ray_segment_t *run = tr->nq > 0 ? &tr->q[tr->nq - 1] : NULL;
     if (tr->any && run && seg->tape == run->tape &&
         (seg->t_in <= run->t_out ||
@@ -394,23 +467,27 @@ static void tracer_offer(tracer_t *tr, const ray_segment_t *seg)
         return;
     }
     tr->q[tr->nq++] = *seg;
-    while (tr->nq == BATCH && !tr->stop)
+    while (tr->nq == BATCH && !tr->stop && !tr->pending)
         tracer_search(tr);
 }
 
-/* No segment is left: search those waiting. */
+/* No segment is left: search those waiting (not while the refinement of
+ * the hit is set aside: they wait for it). */
 static void tracer_finish(tracer_t *tr)
 {
-    while (tr->nq > 0 && !tr->stop)
+    while (tr->nq > 0 && !tr->stop && !tr->pending)
         tracer_search(tr);
 }
 
-static void trace(const tape_t *tape, tape_ws_t *ws, const ray_source_t *src, void *state,
-                  const ray_render_opts_t *opts, const double eye[3], const double d[3],
-                  double t_end, int any, ray_result_t *best, counters_t *cnt)
+/* The hit of one ray into *best.  With hold (may be NULL), the refinement
+ * of the hit may be set aside: returns 1 when it was, the tracer in *hold
+ * (to be settled and finished). */
+static int trace(const tape_t *tape, tape_ws_t *ws, const ray_source_t *src, void *state,
+                 const ray_render_opts_t *opts, const double eye[3], const double d[3],
+                 double t_end, int any, ray_result_t *best, tracer_t *hold, counters_t *cnt)
 {
     tracer_t tr;
-    tracer_init(&tr, tape, ws, opts, eye, d, t_end, any, cnt);
+    tracer_init(&tr, tape, ws, opts, eye, d, t_end, any, hold != NULL, cnt);
     ray_segment_t seg;
     src->begin(src->ctx, state, eye, d);
     while (!tr.stop) {
@@ -421,6 +498,9 @@ static void trace(const tape_t *tape, tape_ws_t *ws, const ray_source_t *src, vo
     }
     tracer_finish(&tr);
     *best = tr.best;
+    if (tr.pending)
+        *hold = tr;
+    return tr.pending;
 }
 
 /* The piece of a shadow ray just before q that render_tile searches first
@@ -440,9 +520,9 @@ static void attached_piece(const tape_t *tape, tape_ws_t *ws, const ray_source_t
         ray_box_source_t bs;
         box_state_t bst;
         ray_source_t box = ray_box_source(&bs, os->tree->box);
-        trace(tape, ws, &box, &bst, opts, p0, d, w, 1, res, cnt);
+        trace(tape, ws, &box, &bst, opts, p0, d, w, 1, res, NULL, cnt);
     } else {
-        trace(tape, ws, src, state, opts, p0, d, w, 1, res, cnt);
+        trace(tape, ws, src, state, opts, p0, d, w, 1, res, NULL, cnt);
     }
 }
 
@@ -467,7 +547,9 @@ static void packet_leaf(void *ctx, int r, const ray_segment_t *seg)
  * res[j]: with pw, packets of up to RAY_PACKET rays of one mask, taken in
  * the order of the list (a ray joins the first packet of its mask started
  * within the next 2 RAY_PACKET rays); without, trace() one by one.  Order
- * the list so that neighbours are near each other. */
+ * the list so that neighbours are near each other.  The refinements of the
+ * first hits (not with `any`) are set aside and run side by side at the
+ * end: the rays of a tile share the evaluator's passes. */
 static void trace_rays(const tape_t *tape, tape_ws_t *ws, const ray_source_t *src, void *state,
                        const ray_octree_source_t *os, ray_packet_ws_t *pw,
                        const ray_render_opts_t *opts, const double o[3], int n,
@@ -476,11 +558,14 @@ static void trace_rays(const tape_t *tape, tape_ws_t *ws, const ray_source_t *sr
 {
     enum { DONE = 8 }; /* not a mask: the ray walked alone, or is in a packet */
     unsigned char mask[TILE * TILE];
+    tracer_t held[TILE * TILE]; /* the rays whose refinement is set aside */
+    int held_at[TILE * TILE], nh = 0;
     for (int j = 0; j < n; j++) {
         unsigned m;
         mask[j] = pw && ray_packet_ray(o, dir[j], &m) ? (unsigned char)m : DONE;
-        if (mask[j] == DONE)
-            trace(tape, ws, src, state, opts, o, dir[j], t_end, any, res[j], cnt);
+        if (mask[j] == DONE && trace(tape, ws, src, state, opts, o, dir[j], t_end, any, res[j],
+                                     any ? NULL : &held[nh], cnt))
+            held_at[nh++] = j;
     }
     for (int j = 0; j < n; j++) {
         if (mask[j] == DONE)
@@ -493,7 +578,7 @@ static void trace_rays(const tape_t *tape, tape_ws_t *ws, const ray_source_t *sr
             if (mask[i] != mj)
                 continue;
             memcpy(d[m], dir[i], sizeof d[m]);
-            tracer_init(&p.tr[m], tape, ws, opts, o, dir[i], t_end, any, cnt);
+            tracer_init(&p.tr[m], tape, ws, opts, o, dir[i], t_end, any, !any, cnt);
             p.t_max[m] = t_end;
             at[m++] = i;
             mask[i] = DONE;
@@ -503,7 +588,22 @@ static void trace_rays(const tape_t *tape, tape_ws_t *ws, const ray_source_t *sr
         for (int i = 0; i < m; i++) {
             tracer_finish(&p.tr[i]);
             *res[at[i]] = p.tr[i].best;
+            if (p.tr[i].pending) {
+                held[nh] = p.tr[i];
+                held_at[nh++] = at[i];
+            }
         }
+    }
+    refine_job_t *jobs[TILE * TILE];
+    for (int h = 0; h < nh; h++) {
+        jobs[h] = &held[h].job;
+        jobs[h]->out = &held[h].best;
+    }
+    cnt->evals += refine_batch(jobs, nh, ws);
+    for (int h = 0; h < nh; h++) {
+        tracer_settle(&held[h]);
+        tracer_finish(&held[h]);
+        *res[held_at[h]] = held[h].best;
     }
 }
 

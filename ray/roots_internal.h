@@ -73,6 +73,10 @@ typedef struct ctx {
     int any;         /* ray_opts_t.any_root: a root proven in a segment ends the search */
     uint64_t evals;  /* evaluator calls */
     uint64_t nodes;  /* segments examined */
+    /* Where refine() may set its refinement aside instead of running it
+     * (ray_find_root_defer), when defer_ok; deferred: it did. */
+    struct refine_job *defer;
+    int defer_ok, deferred;
 } ctx_t;
 
 /* Up to RAY_BATCH requests of one evaluator call: a segment [lo, hi] or a point (pt). */
@@ -167,12 +171,48 @@ static inline ray_hit_kind_t hit(ray_result_t *res, ray_hit_kind_t kind, double 
 
 /* ---- refine.c ------------------------------------------------------------------------ */
 
+/* A refinement of a ray's hit: refine()'s arguments, the ray, and where the
+ * hit goes. */
+typedef struct refine_job {
+    const tape_t *tape;
+    const double *o, *d;
+    double a, b;
+    int sa;
+    int root; /* a root is known to lie in [a, b]: the hit is RAY_HIT_ROOT */
+    iv_t ga, gb;
+    double dga, dgb;
+    ray_result_t *out; /* its kind, t, t_lo and t_hi are set */
+} refine_job_t;
+
 /* g monotone on [a, b], f at a of certified sign sa, b "not sa": the hit,
- * refined to a few ulps (see refine.c). */
+ * refined to a few ulps (see refine.c); a RAY_HIT_ROOT whatever the
+ * refinement proves when root.  With c->defer and c->defer_ok the
+ * refinement is set aside there instead (c->deferred): res is then the
+ * bracket, RAY_HIT_ROOT at t = b, until refine_batch runs it. */
 ray_hit_kind_t refine(ctx_t *c, double a, double b, int sa, iv_t ga, double dga, iv_t gb,
-                      double dgb, ray_result_t *res);
+                      double dgb, int root, ray_result_t *res);
+/* Run the n refinements side by side, their points of each step in shared
+ * passes (per tape); each hit is the one refine() gives it alone.  Returns
+ * the evaluator passes. */
+uint64_t refine_batch(refine_job_t *const *jobs, int n, tape_ws_t *ws);
 /* The monotone case of the end-sign methods: one root iff the end signs differ. */
 ray_hit_kind_t monotone_case(ctx_t *c, const node_t *n, ray_result_t *res);
+
+/* ray_find_root_n, but where a refinement is needed (refine()) it may be set
+ * aside in *job (may be NULL: never) instead, and *deferred says whether it
+ * was: res is then RAY_HIT_ROOT with the bracket [t_lo, t_hi] that holds the
+ * hit, t = t_hi, and *which is -1; refine_batch on job, its out set, gives
+ * the hit of ray_find_root_n, and ray_segment_of its *which. */
+ray_hit_kind_t ray_find_root_defer(const tape_t *tape, tape_ws_t *ws, ray_method_t m,
+                                   const ray_opts_t *opts, const double o[3],
+                                   const double d[3], int n, const double *t0,
+                                   const double *t1, ray_result_t *res, int *which,
+                                   refine_job_t *job, int *deferred);
+
+/* *which of ray_find_root_n for a hit whose bracket starts at t_lo: the
+ * first valid segment (t0 <= t1, both finite) that ends at or after t_lo,
+ * else the last valid one; -1 if none is valid. */
+int ray_segment_of(double t_lo, int n, const double *t0, const double *t1);
 
 /* ---- newton.c ------------------------------------------------------------------------ */
 

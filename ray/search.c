@@ -138,6 +138,7 @@ static ray_hit_kind_t search(ctx_t *c, const ray_opts_t *opts, int nseg,
             k = hit(res, RAY_HIT_BUDGET, n.a, n.a, n.b);
             break;
         }
+        c->defer_ok = !have_pending; /* the pending segment needs the hit's t */
         k = step(c, &S, &n, res);
         if (k == RAY_HIT_TANGENT) {
             if (!have_pending)
@@ -160,6 +161,24 @@ static ray_hit_kind_t search(ctx_t *c, const ray_opts_t *opts, int nseg,
 
 /* ---- entry ------------------------------------------------------------------------------------------------ */
 
+static int valid_segment(double t0, double t1)
+{
+    return t0 <= t1 && isfinite(t0) && isfinite(t1);
+}
+
+int ray_segment_of(double t_lo, int n, const double *t0, const double *t1)
+{
+    /* the search is left first, so the segments before it hold no root */
+    int w = -1;
+    for (int j = 0; j < n; j++)
+        if (valid_segment(t0[j], t1[j])) {
+            w = j;
+            if (t_lo <= t1[j])
+                break;
+        }
+    return w;
+}
+
 ray_hit_kind_t ray_find_root(const tape_t *tape, tape_ws_t *ws, ray_method_t m,
                              const ray_opts_t *opts, const double o[3], const double d[3],
                              double t0, double t1, ray_result_t *res)
@@ -172,6 +191,17 @@ ray_hit_kind_t ray_find_root_n(const tape_t *tape, tape_ws_t *ws, ray_method_t m
                                int n, const double *t0, const double *t1, ray_result_t *res,
                                int *which)
 {
+    return ray_find_root_defer(tape, ws, m, opts, o, d, n, t0, t1, res, which, NULL, NULL);
+}
+
+ray_hit_kind_t ray_find_root_defer(const tape_t *tape, tape_ws_t *ws, ray_method_t m,
+                                   const ray_opts_t *opts, const double o[3],
+                                   const double d[3], int n, const double *t0,
+                                   const double *t1, ray_result_t *res, int *which,
+                                   refine_job_t *job, int *deferred)
+{
+    if (deferred)
+        *deferred = 0;
     res->kind = RAY_MISS;
     res->t = res->t_lo = res->t_hi = NAN;
     res->evals = res->nodes = 0;
@@ -191,7 +221,7 @@ ray_hit_kind_t ray_find_root_n(const tape_t *tape, tape_ws_t *ws, ray_method_t m
     double a[RAY_MAX_SEGMENTS], b[RAY_MAX_SEGMENTS];
     int idx[RAY_MAX_SEGMENTS], k = 0;
     for (int j = 0; j < n; j++)
-        if (t0[j] <= t1[j] && isfinite(t0[j]) && isfinite(t1[j]))
+        if (valid_segment(t0[j], t1[j]))
             a[k] = t0[j], b[k] = t1[j], idx[k++] = j;
     if (k == 0)
         return RAY_MISS;
@@ -201,26 +231,21 @@ ray_hit_kind_t ray_find_root_n(const tape_t *tape, tape_ws_t *ws, ray_method_t m
      * and skipping would only cost a second pass (the values are the same
      * either way: eval_nodes). */
     int skip = M->skip && tape_short_lanes() < RAY_BATCH;
-    ctx_t c = {tape, ws, o, d, M, M->deriv, skip, opts->any_root != 0, 0, 0};
+    ctx_t c = {tape, ws, o, d, M, M->deriv, skip, opts->any_root != 0, 0, 0, job, 0, 0};
     ray_hit_kind_t kind = RAY_MISS;
     int w = -1;
     if (M->rules == RULES_SAMPLING) {
         for (int j = 0; j < k && kind == RAY_MISS; j++)
             if ((kind = sampling(&c, opts, a[j], b[j], res)) != RAY_MISS)
-                w = j;
-    } else if ((kind = search(&c, opts, k, a, b, res)) != RAY_MISS) {
-        /* the first segment holding the start of the hit's bracket: the
-         * search is left first, so the segments before it hold no root */
-        w = k - 1;
-        for (int j = 0; j < k; j++)
-            if (res->t_lo <= b[j]) {
-                w = j;
-                break;
-            }
+                w = idx[j];
+    } else if ((kind = search(&c, opts, k, a, b, res)) != RAY_MISS && !c.deferred) {
+        w = ray_segment_of(res->t_lo, n, t0, t1);
     }
-    if (which && w >= 0)
-        *which = idx[w];
+    if (which)
+        *which = w;
     res->evals = c.evals;
     res->nodes = c.nodes;
+    if (deferred)
+        *deferred = c.deferred;
     return kind;
 }

@@ -258,7 +258,7 @@ import json, sys
 d, f, n = (json.load(open(p)) for p in sys.argv[1:4])
 assert d["octree"] is True and f["octree"] is True and n["octree"] is False
 for s in (d, f):
-    assert 0 < s["leaves_visited"] <= s["segments"], s
+    assert 0 < s["leaves_visited"] <= s["segments"] + 4 * s["hits"], s
     assert s["octree_depth"] == 6 and s["octree_leaves"] > 0
 assert d["octree_source"] == "built" and d["build_time_s"] > 0 and d["time_s"] > 0
 assert f["octree_source"] == sys.argv[4] and "build_time_s" not in f

@@ -568,7 +568,9 @@ static void test_same_image(void **state)
                                     &img[m][NONE], npix);
                 if (m != RAY_SAMPLING && differ[j] > worst)
                     worst = differ[j];
-                assert_true(st[j].leaves <= st[j].segments);
+                /* every leaf yielded is searched, but up to 4 a hit past the
+                 * one that holds it (ray_stats_t.leaves) */
+                assert_true(st[j].leaves <= st[j].segments + 4 * st[j].hits);
             }
             assert_int_equal(st[NONE].leaves, 0);
             printf("%-15s %-13s %6llu %6zu %6zu %7.2f %7.2f %9.1f %9.1f %9.1f\n",

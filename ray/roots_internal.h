@@ -24,6 +24,8 @@
 #define IVOCT_RAY_ROOTS_INTERNAL_H
 
 #include <math.h>
+#include <stdint.h>
+#include <string.h>
 
 #include "ray.h"
 
@@ -136,10 +138,19 @@ static inline int sgn(iv_t g)
 
 static inline int is_sign(int s) { return s == S_POS || s == S_NEG; }
 
+/* The gap from |x| to the next double up: nextafter(|x|, +inf) - |x|, by
+ * the bits (the refinement asks it every step; the call to libm cost more
+ * than the step's bookkeeping).  A finite |x| (subnormals and 0 included)
+ * and its successor are consecutive as integers; +inf and NaN give NaN. */
 static inline double ulp(double x)
 {
     x = fabs(x);
-    return nextafter(x, INFINITY) - x;
+    uint64_t u;
+    memcpy(&u, &x, sizeof u);
+    u += 1;
+    double next;
+    memcpy(&next, &u, sizeof next);
+    return next - x;
 }
 
 /* T is as narrow as the refinement goes: a few ulps */

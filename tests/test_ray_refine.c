@@ -13,7 +13,8 @@
  *    order: their tapes and rays differ from job to job, and there are more
  *    of them than one batch runs side by side;
  *  - ray_segment_of against the rule it names, on random segment lists with
- *    empty, reversed and non-finite segments.
+ *    empty, reversed and non-finite segments;
+ *  - ulp, by the bits, against nextafter.
  * Sizes shrink in the sanitizer build (tu_image_size). */
 #include <math.h>
 #include <setjmp.h>
@@ -186,11 +187,37 @@ static void test_segment_of(void **state)
     }
 }
 
+/* ulp (the refinement's step size and stopping rule) by the bits against
+ * nextafter: random doubles of every exponent, subnormals, 0, the largest
+ * double, and both signs; +inf and NaN give NaN. */
+static void test_ulp(void **state)
+{
+    (void)state;
+    uint64_t rng = tu_seed(0x0195);
+    const double special[] = {0.0, -0.0, 0x1p-1074, 0x1p-1022, 0x1.fffffffffffffp-1023,
+                              1.0, 0x1.fffffffffffffp+1023, 12.012789967367183};
+    for (size_t k = 0; k < sizeof special / sizeof *special; k++) {
+        double x = special[k], a = fabs(x);
+        assert_true(same_bits(ulp(x), nextafter(a, INFINITY) - a));
+    }
+    for (int it = 0; it < 200000; it++) {
+        uint64_t bits = tu_next(&rng);
+        double x;
+        memcpy(&x, &bits, sizeof x);
+        double a = fabs(x);
+        if (isfinite(x))
+            assert_true(same_bits(ulp(x), nextafter(a, INFINITY) - a));
+        else
+            assert_true(isnan(ulp(x)));
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_side_by_side_equals_alone),
         cmocka_unit_test(test_segment_of),
+        cmocka_unit_test(test_ulp),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -7,9 +7,6 @@ _Static_assert(RAY_BATCH >= 8, "a batch holds two nodes with their box and three
 
 int lane_point(lanes_t *L, double t)
 {
-    for (int k = 0; k < L->n; k++)
-        if (L->pt[k] && L->lo[k] == t)
-            return k;
     L->lo[L->n] = L->hi[L->n] = t;
     L->pt[L->n] = 1;
     return L->n++;

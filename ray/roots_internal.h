@@ -91,6 +91,9 @@ typedef struct lanes {
     double rnd[RAY_BATCH]; /* the rounding bound of tape_eval_ray; +inf without derivatives */
 } lanes_t;
 
+/* Append a point or a segment; returns its lane.  A point asked twice gets
+ * two lanes: a lane's value does not depend on the others, and looking for
+ * the earlier one cost more than the rare extra lane. */
 int lane_point(lanes_t *L, double t);
 int lane_box(lanes_t *L, double a, double b);
 /* One pass of the ray evaluator over the lanes of L (derivatives when grad). */

@@ -322,8 +322,8 @@ typedef struct tracer {
     ray_segment_t q[BATCH];
     ray_result_t best;
     counters_t *cnt;
-    int defer;           /* the refinement of the first hit may be set aside */
-    int pending;         /* it is, in job */
+    int pending;         /* the refinement of the first hit is set aside, in job
+                          * (a primary ray's only: not with `any`) */
     refine_job_t job;
     int ns;              /* the segments of its search, as searched */
     double s0[BATCH], s1[BATCH];
@@ -336,7 +336,7 @@ typedef struct tracer {
  * (a shadow ray asks whether there is a root, not where the first one is). */
 static void tracer_init(tracer_t *tr, const tape_t *tape, tape_ws_t *ws,
                         const ray_render_opts_t *opts, const double eye[3], const double d[3],
-                        double t_end, int any, int defer, counters_t *cnt)
+                        double t_end, int any, counters_t *cnt)
 {
     memset(tr, 0, sizeof *tr);
     tr->tape = tape;
@@ -348,7 +348,6 @@ static void tracer_init(tracer_t *tr, const tape_t *tape, tape_ws_t *ws,
     tr->t_max = t_end;
     tr->best = (ray_result_t){RAY_MISS, NAN, NAN, NAN, 0, 0};
     tr->cnt = cnt;
-    tr->defer = defer;
 }
 
 /* Keep the segments waiting from q[from] on that can still start before
@@ -405,7 +404,7 @@ static void tracer_search(tracer_t *tr)
     /* (set aside only as the first hit: a second one is compared by its t) */
     ray_find_root_defer(q[0].tape ? q[0].tape : tr->tape, tr->ws, tr->opts->method,
                         &tr->opts->roots, tr->eye, tr->d, k, t0, t1, &r, &which,
-                        tr->defer && tr->best.kind == RAY_MISS ? &tr->job : NULL, &deferred);
+                        !tr->any && tr->best.kind == RAY_MISS ? &tr->job : NULL, &deferred);
     tr->cnt->evals += r.evals;
     int done = k;
     if (r.kind != RAY_MISS && (tr->best.kind == RAY_MISS || r.t < tr->best.t)) {
@@ -479,15 +478,15 @@ static void tracer_finish(tracer_t *tr)
         tracer_search(tr);
 }
 
-/* The hit of one ray into *best.  With hold (may be NULL), the refinement
- * of the hit may be set aside: returns 1 when it was, the tracer in *hold
- * (to be settled and finished). */
+/* The hit of one ray into *best.  Without `any` the refinement of the hit
+ * may be set aside: returns 1 when it was, the tracer in *hold (to be
+ * settled and finished; hold may be NULL with `any`). */
 static int trace(const tape_t *tape, tape_ws_t *ws, const ray_source_t *src, void *state,
                  const ray_render_opts_t *opts, const double eye[3], const double d[3],
                  double t_end, int any, ray_result_t *best, tracer_t *hold, counters_t *cnt)
 {
     tracer_t tr;
-    tracer_init(&tr, tape, ws, opts, eye, d, t_end, any, hold != NULL, cnt);
+    tracer_init(&tr, tape, ws, opts, eye, d, t_end, any, cnt);
     ray_segment_t seg;
     src->begin(src->ctx, state, eye, d);
     while (!tr.stop) {
@@ -563,8 +562,8 @@ static void trace_rays(const tape_t *tape, tape_ws_t *ws, const ray_source_t *sr
     for (int j = 0; j < n; j++) {
         unsigned m;
         mask[j] = pw && ray_packet_ray(o, dir[j], &m) ? (unsigned char)m : DONE;
-        if (mask[j] == DONE && trace(tape, ws, src, state, opts, o, dir[j], t_end, any, res[j],
-                                     any ? NULL : &held[nh], cnt))
+        if (mask[j] == DONE &&
+            trace(tape, ws, src, state, opts, o, dir[j], t_end, any, res[j], &held[nh], cnt))
             held_at[nh++] = j;
     }
     for (int j = 0; j < n; j++) {
@@ -578,7 +577,7 @@ static void trace_rays(const tape_t *tape, tape_ws_t *ws, const ray_source_t *sr
             if (mask[i] != mj)
                 continue;
             memcpy(d[m], dir[i], sizeof d[m]);
-            tracer_init(&p.tr[m], tape, ws, opts, o, dir[i], t_end, any, !any, cnt);
+            tracer_init(&p.tr[m], tape, ws, opts, o, dir[i], t_end, any, cnt);
             p.t_max[m] = t_end;
             at[m++] = i;
             mask[i] = DONE;

@@ -8,11 +8,13 @@
 
 #define PK RAY_PACKET
 
-/* A cell waiting on the stack: per axis and ray, the [entry, exit] of the
- * ray's parameter (plane_t's bounds of the crossings of the cell's near and
- * far planes), and the rays that may meet it. */
+/* A cell waiting on the stack: per axis, where its rays' [entry, exit] of
+ * the ray parameter are (plane_t's bounds of the crossings of the cell's near
+ * and far planes, a lane per ray), and the rays that may meet it.  The
+ * arrays are those of the level where each plane was a mid-plane
+ * (packet_kernels.h: a frame per depth), or the root's. */
 typedef struct pcell {
-    double en[3][PK], ex[3][PK];
+    const double *en[3], *ex[3];
     uint32_t i[3];   /* cell coordinates at depth */
     oct_node_t word;
     int depth;

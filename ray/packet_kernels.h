@@ -87,19 +87,30 @@ static inline uint32_t bits_lt(const double *a, const double *b)
 }
 #endif
 
+/* The crossings of the mid-planes of the cell expanded last at one depth.
+ * Its children point into them, and the walk is depth first: by the time
+ * another cell of that depth is expanded, none of those children is left on
+ * the stack.  So a pushed cell carries pointers, not its 6 arrays. */
+typedef struct pframe {
+    double mlo[3][PK], mhi[3][PK];
+} pframe_t;
+
 void K(packet_walk)(packet_rays_t *p)
 {
     const oct_tree_t *tree = p->tree;
     pcell_t *stack = p->stack;
-    double tm[PK], lo[PK], hi[PK], mlo[3][PK], mhi[3][PK];
+    double tm[PK], lo[PK], hi[PK], ren[3][PK], rex[3][PK];
+    pframe_t frame[OCT_MAX_DEPTH + 1];
     memcpy(tm, p->t_max, sizeof tm);
 
     /* the root: the tree's box (oct_coord's planes 0 and 2^depth) */
     pcell_t *root = &stack[0];
     for (int a = 0; a < 3; a++) {
         double blo = tree->box[2 * a], bhi = tree->box[2 * a + 1];
-        plane_lo(p, a, p->neg[a] ? bhi : blo, root->en[a]);
-        plane_hi(p, a, p->neg[a] ? blo : bhi, root->ex[a]);
+        plane_lo(p, a, p->neg[a] ? bhi : blo, ren[a]);
+        plane_hi(p, a, p->neg[a] ? blo : bhi, rex[a]);
+        root->en[a] = ren[a];
+        root->ex[a] = rex[a];
         root->i[a] = 0;
     }
     range(root->en[0], root->en[1], root->en[2], root->ex[0], root->ex[1], root->ex[2], lo, hi);
@@ -133,6 +144,7 @@ void K(packet_walk)(packet_rays_t *p)
         int depth = c.depth + 1;
         if ((uint64_t)first + 8 > tree->n_nodes || depth > tree->depth)
             continue;
+        double(*mlo)[PK] = frame[c.depth].mlo, (*mhi)[PK] = frame[c.depth].mhi;
         /* the children's words first: the load often misses the cache, and
          * the crossings below hide part of it */
         oct_node_t kids[8];
@@ -173,12 +185,8 @@ void K(packet_walk)(packet_rays_t *p)
             if (!kact)
                 continue;
             pcell_t *e = &stack[sp++];
-            memcpy(e->en[0], e0, sizeof e->en[0]);
-            memcpy(e->en[1], e1, sizeof e->en[1]);
-            memcpy(e->en[2], e2, sizeof e->en[2]);
-            memcpy(e->ex[0], x0, sizeof e->ex[0]);
-            memcpy(e->ex[1], x1, sizeof e->ex[1]);
-            memcpy(e->ex[2], x2, sizeof e->ex[2]);
+            e->en[0] = e0, e->en[1] = e1, e->en[2] = e2;
+            e->ex[0] = x0, e->ex[1] = x1, e->ex[2] = x2;
             e->i[0] = 2 * c.i[0] + hx;
             e->i[1] = 2 * c.i[1] + hy;
             e->i[2] = 2 * c.i[2] + hz;

@@ -61,6 +61,37 @@ static inline iv_t k_max(iv_t a, iv_t b)
 }
 
 #define IV(lo, hi, k) iv_make((lo)[k], (hi)[k])
+
+/* Clause j is a constant that is one finite double, in *c: a product by it
+ * takes iv_mul_point, the same bits as iv_mul in about half the work. */
+static inline int k_point_const(const tape_t *t, uint32_t j, double *c)
+{
+    const tape_clause_t *k = &t->clauses[j];
+    *c = k->c.lo;
+    return k->op == TAPE_CONST && k->c.lo == k->c.hi && isfinite(k->c.lo);
+}
+
+/* o = c x lane by lane (iv_mul_point) */
+static inline void lanes_mul_point(double *restrict ol, double *restrict oh, double c,
+                                   const double *xl, const double *xh, size_t nl)
+{
+    for (size_t k = 0; k < nl; k++) {
+        iv_t r = iv_mul_point(c, IV(xl, xh, k));
+        ol[k] = r.lo, oh[k] = r.hi;
+    }
+}
+
+/* a product, by a constant when a factor is one (k_point_const) */
+#define LANES_MUL()                                                                          \
+    do {                                                                                     \
+        double pc_;                                                                          \
+        if (k_point_const(t, c->a, &pc_))                                                    \
+            lanes_mul_point(ol, oh, pc_, bl, bh, nl);                                        \
+        else if (k_point_const(t, c->b, &pc_))                                               \
+            lanes_mul_point(ol, oh, pc_, al, ah, nl);                                        \
+        else                                                                                 \
+            LANES_BINARY(iv_mul);                                                            \
+    } while (0)
 #define LANES_UNARY(fn)                                                                      \
     for (size_t k = 0; k < nl; k++) {                                                        \
         iv_t r_ = fn(IV(al, ah, k));                                                         \
@@ -123,7 +154,7 @@ static inline void K(interval_n)(const tape_t *t, double *LO, double *HI, size_t
             for (size_t k = 0; k < nl; k++)
                 ol[k] = iv_add_down(al[k], -bh[k]), oh[k] = iv_add_up(ah[k], -bl[k]);
             break;
-        case TAPE_MUL: LANES_BINARY(iv_mul); break;
+        case TAPE_MUL: LANES_MUL(); break;
         case TAPE_DIV: LANES_BINARY(iv_div); break;
         case TAPE_MIN: LANES_BINARY(k_min); break;
         case TAPE_MAX: LANES_BINARY(k_max); break;
@@ -385,6 +416,26 @@ static void lanes_mul_add(double *restrict ol, double *restrict oh, const double
         ol[k] = iv_add_down(xl[k], yl[k]), oh[k] = iv_add_up(xh[k], yh[k]);
 }
 
+/* o = c x, c a finite constant (k_point_const), either factor; mx: x's mask.
+ * What g_lanes_mul gives, bit for bit: c's partials are not in any mask, so
+ * each partial of x is a single product by c (c itself where it is [1, 1]). */
+static void g_lanes_mul_point(const gout_t *out, double c, const gview_t *x, size_t nl,
+                              unsigned mx)
+{
+    for (int j = 1; j < 4; j++) {
+        double *restrict ol = GLO(out->o, j), *restrict oh = GHI(out->o, j);
+        out->src[j - 1] = out->self;
+        if (!HAS(mx, j))
+            out->src[j - 1] = out->zero;
+        else if (HAS(x->unit, j))
+            for (size_t k = 0; k < nl; k++)
+                ol[k] = oh[k] = c;
+        else
+            lanes_mul_point(ol, oh, c, x->p[j], x->p[j] + B, nl);
+    }
+    lanes_mul_point(GLO(out->o, 0), GHI(out->o, 0), c, x->p[0], x->p[0] + B, nl);
+}
+
 /* the product rule (g_mul); a partial of one operand alone is a single
  * product */
 static void g_lanes_mul(const gout_t *out, const gview_t *a, const gview_t *b, size_t nl,
@@ -565,7 +616,16 @@ static void K(grad)(const tape_t *t, const uint8_t *deps, double *G, uint32_t *s
             break;
         case TAPE_ADD: g_lanes_add(&out, &a, &b, nl, 1, ma, mb); break;
         case TAPE_SUB: g_lanes_add(&out, &a, &b, nl, -1, ma, mb); break;
-        case TAPE_MUL: g_lanes_mul(&out, &a, &b, nl, ma, mb); break;
+        case TAPE_MUL: {
+            double pc;
+            if (k_point_const(t, c->a, &pc))
+                g_lanes_mul_point(&out, pc, &b, nl, mb);
+            else if (k_point_const(t, c->b, &pc))
+                g_lanes_mul_point(&out, pc, &a, nl, ma);
+            else
+                g_lanes_mul(&out, &a, &b, nl, ma, mb);
+            break;
+        }
         case TAPE_DIV:
             for (size_t k = 0; k < nl; k++)
                 g_store(o, k, g_div(g_load(&a, k), g_load(&b, k)));
@@ -799,24 +859,74 @@ static void K(point_grad)(const tape_t *t, const uint8_t *deps, double *P, size_
  * set of lane loops; the cheap operations split into loops that vectorise. */
 #define RA(p, c) ((p) + (size_t)(c) * B)
 
+/* Clause j is x, y or z and the direction d is finite (dir_finite): along
+ * the ray the clause's derivative is then d's component, a finite point in
+ * every lane, so a product by it takes iv_mul_point (the same bits as
+ * iv_mul). */
+static inline int r_is_input(const tape_t *t, uint32_t j, int dir_finite)
+{
+    tape_op_t op = (tape_op_t)t->clauses[j].op;
+    return dir_finite && (op == TAPE_X || op == TAPE_Y || op == TAPE_Z);
+}
+
 /* o = u(a) along the ray for a unary op u with derivative du (fm_unary's
- * rules), o's value u(a) being set: du * a' and |du| * a's magnitude */
+ * rules), o's value u(a) being set: du * a' and |du| * a's magnitude;
+ * a_input: a is x, y or z (r_is_input) */
 static void r_lanes_chain(double *o, const double *a, size_t nl, const double *dul,
-                          const double *duh)
+                          const double *duh, int a_input)
 {
     double *restrict dl = RA(o, R_DLO), *restrict dh = RA(o, R_DHI), *restrict m = RA(o, R_MAG);
     const double *adl = RA(a, R_DLO), *adh = RA(a, R_DHI), *am = RA(a, R_MAG);
-    for (size_t k = 0; k < nl; k++) {
-        iv_t d = iv_mul(IV(dul, duh, k), IV(adl, adh, k));
-        dl[k] = d.lo, dh[k] = d.hi;
-    }
+    if (a_input)
+        for (size_t k = 0; k < nl; k++) {
+            iv_t d = iv_mul_point(adl[k], IV(dul, duh, k));
+            dl[k] = d.lo, dh[k] = d.hi;
+        }
+    else
+        for (size_t k = 0; k < nl; k++) {
+            iv_t d = iv_mul(IV(dul, duh, k), IV(adl, adh, k));
+            dl[k] = d.lo, dh[k] = d.hi;
+        }
     for (size_t k = 0; k < nl; k++)
         m[k] = mag_mul(mag_of(IV(dul, duh, k)), am[k]);
 }
 
+/* The derivative of a b along the ray, a' b + a b' (lanes_mul_add), with a
+ * product by the direction's component where a or b is x, y or z
+ * (r_is_input). */
+static void r_lanes_product_rule(double *restrict dl, double *restrict dh, const double *a,
+                                 const double *b, size_t nl, int a_input, int b_input)
+{
+    const double *avl = RA(a, R_VLO), *avh = RA(a, R_VHI), *adl = RA(a, R_DLO),
+                 *adh = RA(a, R_DHI);
+    const double *bvl = RA(b, R_VLO), *bvh = RA(b, R_VHI), *bdl = RA(b, R_DLO),
+                 *bdh = RA(b, R_DHI);
+    if (!a_input && !b_input) {
+        lanes_mul_add(dl, dh, adl, adh, bvl, bvh, avl, avh, bdl, bdh, 0, 0, nl);
+        return;
+    }
+    double xl[B], xh[B], yl[B], yh[B];
+    if (a_input)
+        for (size_t k = 0; k < nl; k++) {
+            iv_t r = iv_mul_point(adl[k], IV(bvl, bvh, k));
+            xl[k] = r.lo, xh[k] = r.hi;
+        }
+    else
+        lanes_mul(xl, xh, adl, adh, bvl, bvh, 0, nl);
+    if (b_input)
+        for (size_t k = 0; k < nl; k++) {
+            iv_t r = iv_mul_point(bdl[k], IV(avl, avh, k));
+            yl[k] = r.lo, yh[k] = r.hi;
+        }
+    else
+        lanes_mul(yl, yh, avl, avh, bdl, bdh, 0, nl);
+    for (size_t k = 0; k < nl; k++)
+        dl[k] = iv_add_down(xl[k], yl[k]), dh[k] = iv_add_up(xh[k], yh[k]);
+}
+
 /* x^2 (n = 2) and x^n (n >= 3) along the ray: fm_unary's x^2 (derivative 2x) and x^n
  * (derivative n x^(n-1)) with the interval pass's vector powers */
-static void r_lanes_powi(double *o, const double *a, size_t nl, unsigned n)
+static void r_lanes_powi(double *o, const double *a, size_t nl, unsigned n, int a_input)
 {
     const double *avl = RA(a, R_VLO), *avh = RA(a, R_VHI);
     double *restrict vl = RA(o, R_VLO), *restrict vh = RA(o, R_VHI);
@@ -835,13 +945,33 @@ static void r_lanes_powi(double *o, const double *a, size_t nl, unsigned n)
             }
         else
             iv_powi_lanes(avl, avh, nl, n - 1, sl, sh);
-        iv_t nn = iv_point((double)n);
         for (size_t k = 0; k < nl; k++) {
-            iv_t r = iv_mul(nn, IV(sl, sh, k));
+            iv_t r = iv_mul_point((double)n, IV(sl, sh, k));
             sl[k] = r.lo, sh[k] = r.hi;
         }
     }
-    r_lanes_chain(o, a, nl, sl, sh);
+    r_lanes_chain(o, a, nl, sl, sh, a_input);
+}
+
+/* o = c x along the ray, c a finite constant (k_point_const), either factor:
+ * the general product's bits.  The product rule's other term, c' x = [0, 0]
+ * (NaN where x is empty), is added exactly as iv_add_down / iv_add_up add a
+ * zero term (0 + y: -0 becomes +0), and likewise the magnitude's. */
+static inline void r_lanes_mul_point(double *o, double c, const double *x, size_t nl)
+{
+    double *restrict vl = RA(o, R_VLO), *restrict vh = RA(o, R_VHI);
+    double *restrict dl = RA(o, R_DLO), *restrict dh = RA(o, R_DHI), *restrict m = RA(o, R_MAG);
+    const double *xvl = RA(x, R_VLO), *xvh = RA(x, R_VHI), *xdl = RA(x, R_DLO),
+                 *xdh = RA(x, R_DHI), *xm = RA(x, R_MAG);
+    const double mc = fabs(c);
+    for (size_t k = 0; k < nl; k++) {
+        iv_t v = iv_mul_point(c, IV(xvl, xvh, k)), d = iv_mul_point(c, IV(xdl, xdh, k));
+        int empty = iv_is_empty(IV(xvl, xvh, k));
+        vl[k] = v.lo, vh[k] = v.hi;
+        dl[k] = empty ? NAN : 0.0 + d.lo;
+        dh[k] = empty ? NAN : 0.0 + d.hi;
+        m[k] = 0.0 + mag_mul(mc, xm[k]);
+    }
 }
 
 /* o = a + b (add) or a - b along the ray; inlined with add constant, so
@@ -871,6 +1001,9 @@ static inline void r_lanes_add(double *o, const double *a, const double *b, size
 static inline void K(ray_n)(const tape_t *t, double *R, size_t nl, kernel_in_t in,
                             kernel_in_t dir_rho)
 {
+    /* (every lane has the same d: ray_inputs) */
+    const int dir_finite = nl > 0 && isfinite(dir_rho[0][0]) && isfinite(dir_rho[1][0]) &&
+                           isfinite(dir_rho[2][0]);
     for (uint32_t i = 0; i < t->n; i++) {
         const tape_clause_t *c = &t->clauses[i];
         double *o = R + (size_t)i * R_ARRAYS * B;
@@ -908,11 +1041,21 @@ static inline void K(ray_n)(const tape_t *t, double *R, size_t nl, kernel_in_t i
         case TAPE_ADD: r_lanes_add(o, a, b, nl, 1); break;
         case TAPE_SUB: r_lanes_add(o, a, b, nl, 0); break;
         case TAPE_MUL: {
+            double pc;
+            if (k_point_const(t, c->a, &pc)) {
+                r_lanes_mul_point(o, pc, b, nl);
+                break;
+            }
+            if (k_point_const(t, c->b, &pc)) {
+                r_lanes_mul_point(o, pc, a, nl);
+                break;
+            }
             for (size_t k = 0; k < nl; k++) {
                 iv_t v = iv_mul(IV(avl, avh, k), IV(bvl, bvh, k));
                 vl[k] = v.lo, vh[k] = v.hi;
             }
-            lanes_mul_add(dl, dh, adl, adh, bvl, bvh, avl, avh, bdl, bdh, 0, 0, nl);
+            r_lanes_product_rule(dl, dh, a, b, nl, r_is_input(t, c->a, dir_finite),
+                                 r_is_input(t, c->b, dir_finite));
             for (size_t k = 0; k < nl; k++)
                 m[k] = mag_add(mag_mul(am[k], mag_of(IV(bvl, bvh, k))),
                                mag_mul(mag_of(IV(avl, avh, k)), bm[k]));
@@ -942,11 +1085,12 @@ static inline void K(ray_n)(const tape_t *t, double *R, size_t nl, kernel_in_t i
                 m[k] = pick < 0 ? am[k] : pick > 0 ? bm[k] : am[k] > bm[k] ? am[k] : bm[k];
             }
             break;
-        case TAPE_SQR: r_lanes_powi(o, a, nl, 2); break;
+        case TAPE_SQR: r_lanes_powi(o, a, nl, 2, r_is_input(t, c->a, dir_finite)); break;
         case TAPE_OP_COUNT: break;
         default:
             if (op == TAPE_POWI && (int)c->c.lo >= 3) {
-                r_lanes_powi(o, a, nl, (unsigned)(int)c->c.lo);
+                r_lanes_powi(o, a, nl, (unsigned)(int)c->c.lo,
+                             r_is_input(t, c->a, dir_finite));
                 break;
             }
             for (size_t k = 0; k < nl; k++) {
@@ -981,10 +1125,16 @@ static inline void K(ray_inputs_n)(size_t nl, const double o[3], const double d[
          * gcc vectorises neither) */
         for (size_t k = 0; k < nl; k++)
             ov[k] = oi, dv[k] = di;
-        for (size_t k = 0; k < nl; k++) {
-            iv_t s = iv_mul(IV(tl, th, k), IV(dv, dv, k));
-            sl[k] = s.lo, sh[k] = s.hi;
-        }
+        if (isfinite(di))
+            for (size_t k = 0; k < nl; k++) {
+                iv_t s = iv_mul_point(di, IV(tl, th, k));
+                sl[k] = s.lo, sh[k] = s.hi;
+            }
+        else
+            for (size_t k = 0; k < nl; k++) {
+                iv_t s = iv_mul(IV(tl, th, k), IV(dv, dv, k));
+                sl[k] = s.lo, sh[k] = s.hi;
+            }
         for (size_t k = 0; k < nl; k++) {
             iv_t s = iv_add(IV(ov, ov, k), IV(sl, sh, k));
             sl[k] = s.lo, sh[k] = s.hi;

@@ -143,6 +143,55 @@ static void test_point_box_is_tight(void **state)
     tape_free(t);
 }
 
+/* A product by a constant takes iv_mul_point in the passes (expr/kernels.h):
+ * the interval pass and the gradient pass give what iv_mul gives, bit for
+ * bit, over boxes of every sign (zeros, points, both orders of the factors,
+ * a constant that is not one double). */
+static int same_iv_bits(iv_t a, iv_t b) { return memcmp(&a, &b, sizeof a) == 0; }
+
+static void test_products_by_constants(void **state)
+{
+    (void)state;
+    tape_t *t = compile("8*x*y*z + y*(-3) - 0*z + 0.1*x");
+    tape_ws_t *ws = tape_ws_new(t->n);
+    assert_non_null(ws);
+    enum { N = 300 };
+    iv_box_t box[N];
+    iv_t v[N];
+    iv_grad_t g[N];
+    uint64_t rng = tu_seed(12);
+    for (int i = 0; i < N; i++) {
+        iv_t *axis[3] = {&box[i].x, &box[i].y, &box[i].z};
+        for (int k = 0; k < 3; k++) {
+            uint64_t u = tu_next(&rng);
+            double a = 8 * tu_uniform(&rng) - 4, b = u % 5 == 0 ? a : 8 * tu_uniform(&rng) - 4;
+            a = u % 7 == 0 ? 0.0 : u % 11 == 0 ? -0.0 : a;
+            b = u % 13 == 0 ? 0.0 : b;
+            *axis[k] = (iv_t){a < b ? a : b, a < b ? b : a};
+        }
+    }
+    tape_eval_interval(t, ws, N, box, v);
+    tape_eval_grad(t, ws, N, box, g);
+    iv_t c01;
+    assert_true(iv_from_decimal("0.1", &c01));
+    for (int i = 0; i < N; i++) {
+        iv_t x = box[i].x, y = box[i].y, z = box[i].z;
+        iv_t p = iv_mul(iv_mul(iv_mul(iv_point(8), x), y), z);
+        iv_t f = iv_add(iv_sub(iv_add(p, iv_mul(y, iv_point(-3))), iv_mul(iv_point(0), z)),
+                        iv_mul(c01, x));
+        assert_true(same_iv_bits(v[i], f));
+        assert_true(same_iv_bits(g[i].v, f));
+        /* d/dz = 8xy, d/dy = 8xz - 3 (-0 z contributes nothing to the masks) */
+        iv_t xy8 = iv_mul(iv_mul(iv_point(8), x), y);
+        assert_true(same_iv_bits(g[i].dz, xy8));
+        iv_t x8 = iv_mul(iv_point(8), x);
+        iv_t dy = iv_add(iv_mul(x8, z), iv_point(-3));
+        assert_true(g[i].dy.lo <= dy.lo && dy.hi <= g[i].dy.hi);
+    }
+    tape_ws_free(ws);
+    tape_free(t);
+}
+
 /* A partial that is exactly [1, 1] (a variable's own, through sums) is not
  * multiplied in: the partial of a product by a variable is the other factor
  * itself, bit for bit, not that factor widened by iv_mul's rounding. */
@@ -241,6 +290,7 @@ int main(void)
         cmocka_unit_test(test_batches_are_independent),
         cmocka_unit_test(test_point_box_is_tight),
         cmocka_unit_test(test_grad_skips_unit_factors),
+        cmocka_unit_test(test_products_by_constants),
         cmocka_unit_test(test_set_based_domains),
         cmocka_unit_test(test_point_grad_conventions),
     };

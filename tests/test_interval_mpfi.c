@@ -1024,6 +1024,37 @@ OP_TEST(dtan, OP_DTAN)
 OP_TEST(datan, OP_DATAN)
 OP_TEST(dabs, OP_DABS)
 
+/* iv_mul_point(c, a) is iv_mul by the point c, bit for bit, in either order
+ * (so test_mul's MPFI reference covers it): COUNT random operands of every
+ * shape gen_iv makes, empty and unbounded ones included, and every finite c
+ * gen_double makes (zeros of both signs, subnormals, huge). */
+static int same_bits(double x, double y) { return memcmp(&x, &y, sizeof x) == 0; }
+
+static void test_mul_point(void **state)
+{
+    (void)state;
+    uint64_t s = tu_seed(SEED) ^ 0x6d756c70ull;
+    long count = (long)(COUNT * tu_scale()), compared = 0;
+    if (count < 1)
+        count = 1;
+    for (long i = 0; i < count; i++) {
+        double c = gen_double(&s, 0);
+        iv_t a = gen_iv(&s, 0);
+        if (!isfinite(c))
+            continue;
+        iv_t r = iv_mul_point(c, a), p = iv_mul(iv_point(c), a), q = iv_mul(a, iv_point(c));
+        if (!(same_bits(r.lo, p.lo) && same_bits(r.hi, p.hi) && same_bits(r.lo, q.lo) &&
+              same_bits(r.hi, q.hi)))
+            fail_msg("iv_mul_point(%a, [%a, %a]) = [%a, %a], iv_mul gives [%a, %a] and "
+                     "[%a, %a] (seed %llu, case %ld)",
+                     c, a.lo, a.hi, r.lo, r.hi, p.lo, p.hi, q.lo, q.hi,
+                     (unsigned long long)tu_seed(SEED), i);
+        compared++;
+    }
+    printf("mul_point %ld cases: %ld bit for bit as iv_mul\n", count, compared);
+    assert_true(compared >= count / 2);
+}
+
 /* ---- exact expectations ------------------------------------------------------ */
 static void test_exact_cases(void **state)
 {
@@ -1228,6 +1259,7 @@ int main(void)
         cmocka_unit_test(test_sub),
         cmocka_unit_test(test_neg),
         cmocka_unit_test(test_mul),
+        cmocka_unit_test(test_mul_point),
         cmocka_unit_test(test_div),
         cmocka_unit_test(test_sqr),
         cmocka_unit_test(test_powi),

@@ -71,14 +71,22 @@ static inline int k_point_const(const tape_t *t, uint32_t j, double *c)
     return k->op == TAPE_CONST && k->c.lo == k->c.hi && isfinite(k->c.lo);
 }
 
-/* o = c x lane by lane (iv_mul_point) */
+/* o = c x lane by lane, c finite (iv_mul_point): a loop per sign of c, so
+ * that the sign rules are worked out once */
+#define LANES_MUL_POINT(s)                                                                   \
+    for (size_t k = 0; k < nl; k++) {                                                        \
+        iv_t r = iv_mul_point_sign(c, IV(xl, xh, k), s);                                     \
+        ol[k] = r.lo, oh[k] = r.hi;                                                          \
+    }
 static inline void lanes_mul_point(double *restrict ol, double *restrict oh, double c,
                                    const double *xl, const double *xh, size_t nl)
 {
-    for (size_t k = 0; k < nl; k++) {
-        iv_t r = iv_mul_point(c, IV(xl, xh, k));
-        ol[k] = r.lo, oh[k] = r.hi;
-    }
+    if (c > 0)
+        LANES_MUL_POINT(1)
+    else if (c < 0)
+        LANES_MUL_POINT(-1)
+    else
+        LANES_MUL_POINT(0)
 }
 
 /* a product, by a constant when a factor is one (k_point_const) */
@@ -860,9 +868,9 @@ static void K(point_grad)(const tape_t *t, const uint8_t *deps, double *P, size_
 #define RA(p, c) ((p) + (size_t)(c) * B)
 
 /* Clause j is x, y or z and the direction d is finite (dir_finite): along
- * the ray the clause's derivative is then d's component, a finite point in
- * every lane, so a product by it takes iv_mul_point (the same bits as
- * iv_mul). */
+ * the ray the clause's derivative is then d's component, the same finite
+ * point in every lane (ray_inputs), so a product by it takes iv_mul_point
+ * (the same bits as iv_mul) by lane 0's value. */
 static inline int r_is_input(const tape_t *t, uint32_t j, int dir_finite)
 {
     tape_op_t op = (tape_op_t)t->clauses[j].op;
@@ -878,10 +886,7 @@ static void r_lanes_chain(double *o, const double *a, size_t nl, const double *d
     double *restrict dl = RA(o, R_DLO), *restrict dh = RA(o, R_DHI), *restrict m = RA(o, R_MAG);
     const double *adl = RA(a, R_DLO), *adh = RA(a, R_DHI), *am = RA(a, R_MAG);
     if (a_input)
-        for (size_t k = 0; k < nl; k++) {
-            iv_t d = iv_mul_point(adl[k], IV(dul, duh, k));
-            dl[k] = d.lo, dh[k] = d.hi;
-        }
+        lanes_mul_point(dl, dh, adl[0], dul, duh, nl);
     else
         for (size_t k = 0; k < nl; k++) {
             iv_t d = iv_mul(IV(dul, duh, k), IV(adl, adh, k));
@@ -907,17 +912,11 @@ static void r_lanes_product_rule(double *restrict dl, double *restrict dh, const
     }
     double xl[B], xh[B], yl[B], yh[B];
     if (a_input)
-        for (size_t k = 0; k < nl; k++) {
-            iv_t r = iv_mul_point(adl[k], IV(bvl, bvh, k));
-            xl[k] = r.lo, xh[k] = r.hi;
-        }
+        lanes_mul_point(xl, xh, adl[0], bvl, bvh, nl);
     else
         lanes_mul(xl, xh, adl, adh, bvl, bvh, 0, nl);
     if (b_input)
-        for (size_t k = 0; k < nl; k++) {
-            iv_t r = iv_mul_point(bdl[k], IV(avl, avh, k));
-            yl[k] = r.lo, yh[k] = r.hi;
-        }
+        lanes_mul_point(yl, yh, bdl[0], avl, avh, nl);
     else
         lanes_mul(yl, yh, avl, avh, bdl, bdh, 0, nl);
     for (size_t k = 0; k < nl; k++)
@@ -945,19 +944,21 @@ static void r_lanes_powi(double *o, const double *a, size_t nl, unsigned n, int 
             }
         else
             iv_powi_lanes(avl, avh, nl, n - 1, sl, sh);
-        for (size_t k = 0; k < nl; k++) {
-            iv_t r = iv_mul_point((double)n, IV(sl, sh, k));
-            sl[k] = r.lo, sh[k] = r.hi;
-        }
+        double pl[B], ph[B];
+        memcpy(pl, sl, nl * sizeof *pl);
+        memcpy(ph, sh, nl * sizeof *ph);
+        lanes_mul_point(sl, sh, (double)n, pl, ph, nl);
     }
     r_lanes_chain(o, a, nl, sl, sh, a_input);
 }
 
-/* o = c x along the ray, c a finite constant (k_point_const), either factor:
- * the general product's bits.  The product rule's other term, c' x = [0, 0]
- * (NaN where x is empty), is added exactly as iv_add_down / iv_add_up add a
- * zero term (0 + y: -0 becomes +0), and likewise the magnitude's. */
-static inline void r_lanes_mul_point(double *o, double c, const double *x, size_t nl)
+/* o = c x along the ray, c a finite constant (k_point_const) of sign s
+ * (iv_mul_point_sign), either factor: the general product's bits.  The
+ * product rule's other term, c' x = [0, 0] (NaN where x is empty), is added
+ * exactly as iv_add_down / iv_add_up add a zero term (0 + y: -0 becomes +0),
+ * and likewise the magnitude's. */
+static inline void r_lanes_mul_point_sign(double *o, double c, const double *x, size_t nl,
+                                          int s)
 {
     double *restrict vl = RA(o, R_VLO), *restrict vh = RA(o, R_VHI);
     double *restrict dl = RA(o, R_DLO), *restrict dh = RA(o, R_DHI), *restrict m = RA(o, R_MAG);
@@ -965,13 +966,24 @@ static inline void r_lanes_mul_point(double *o, double c, const double *x, size_
                  *xdh = RA(x, R_DHI), *xm = RA(x, R_MAG);
     const double mc = fabs(c);
     for (size_t k = 0; k < nl; k++) {
-        iv_t v = iv_mul_point(c, IV(xvl, xvh, k)), d = iv_mul_point(c, IV(xdl, xdh, k));
+        iv_t v = iv_mul_point_sign(c, IV(xvl, xvh, k), s);
+        iv_t d = iv_mul_point_sign(c, IV(xdl, xdh, k), s);
         int empty = iv_is_empty(IV(xvl, xvh, k));
         vl[k] = v.lo, vh[k] = v.hi;
         dl[k] = empty ? NAN : 0.0 + d.lo;
         dh[k] = empty ? NAN : 0.0 + d.hi;
         m[k] = 0.0 + mag_mul(mc, xm[k]);
     }
+}
+
+static void r_lanes_mul_point(double *o, double c, const double *x, size_t nl)
+{
+    if (c > 0)
+        r_lanes_mul_point_sign(o, c, x, nl, 1);
+    else if (c < 0)
+        r_lanes_mul_point_sign(o, c, x, nl, -1);
+    else
+        r_lanes_mul_point_sign(o, c, x, nl, 0);
 }
 
 /* o = a + b (add) or a - b along the ray; inlined with add constant, so
@@ -1126,10 +1138,7 @@ static inline void K(ray_inputs_n)(size_t nl, const double o[3], const double d[
         for (size_t k = 0; k < nl; k++)
             ov[k] = oi, dv[k] = di;
         if (isfinite(di))
-            for (size_t k = 0; k < nl; k++) {
-                iv_t s = iv_mul_point(di, IV(tl, th, k));
-                sl[k] = s.lo, sh[k] = s.hi;
-            }
+            lanes_mul_point(sl, sh, di, tl, th, nl);
         else
             for (size_t k = 0; k < nl; k++) {
                 iv_t s = iv_mul(IV(tl, th, k), IV(dv, dv, k));

@@ -181,7 +181,7 @@ static void test_products_by_constants(void **state)
                         iv_mul(c01, x));
         assert_true(same_iv_bits(v[i], f));
         assert_true(same_iv_bits(g[i].v, f));
-        /* d/dz = 8xy, d/dy = 8xz - 3 (-0 z contributes nothing to the masks) */
+        /* d/dz = 8xy (z's own partial is [1, 1]), d/dy = 8xz - 3 (0*z is [0, 0]) */
         iv_t xy8 = iv_mul(iv_mul(iv_point(8), x), y);
         assert_true(same_iv_bits(g[i].dz, xy8));
         iv_t x8 = iv_mul(iv_point(8), x);

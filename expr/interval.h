@@ -184,6 +184,26 @@ static inline iv_t iv_mul_point(double c, iv_t a)
     return iv_mul_point_sign(c, a, (c > 0) - (c < 0));
 }
 
+/* An enclosure of the dot product x·y of two vectors of 3 doubles, from its
+ * value in doubles and a bound on that value's error (not from interval
+ * products: a dozen double operations).  s = fl(fl(fl(x0 y0) + fl(x1 y1)) +
+ * fl(x2 y2)) is within gamma_3 S + 3 eta of x·y, S = sum |x_i y_i|,
+ * gamma_3 = 3u / (1 - 3u), u = 2^-53, eta = 2^-1074 for the products'
+ * underflow (Higham, "Accuracy and Stability of Numerical Algorithms",
+ * §3.1); the sum S~ of the |fl(x_i y_i)| computed likewise is at least
+ * (1 - 3u) S - 3 eta, so 2^-51 S~ + 2^-1020 bounds the error with room for
+ * its own rounding.  NaN bounds (empty) when an operand is not finite or the
+ * products overflow. */
+static inline iv_t iv_dot3(const double x[3], const double y[3])
+{
+    double p0 = x[0] * y[0], p1 = x[1] * y[1], p2 = x[2] * y[2];
+    double s = (p0 + p1) + p2;
+    double e = ((fabs(p0) + fabs(p1)) + fabs(p2)) * 0x1p-51 + 0x1p-1020;
+    if (!isfinite(s) || !isfinite(e))
+        return iv_make(NAN, NAN);
+    return iv_make(iv_add_down(s, -e), iv_add_up(s, e));
+}
+
 /* The upper end of iv_sqr(a) from the magnitude m = max(|a.lo|, |a.hi|) of a
  * non-empty a (NaN gives NaN): m^2 rounded up, exactly 0 for m = 0.  For the
  * callers that need only that end (a Lipschitz bound, a cell's diagonal).

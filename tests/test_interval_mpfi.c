@@ -1056,6 +1056,74 @@ static void test_mul_point(void **state)
 }
 
 /* ---- exact expectations ------------------------------------------------------ */
+/* iv_dot3 against the exact dot product (MPFR at a precision where every
+ * product and sum of doubles is exact): the enclosure holds it, is at most a
+ * few ulps of sum |x_i y_i| wide (unbounded only next to the overflow), and
+ * is empty only where an operand is not finite or the doubles overflow.  A third of the cases
+ * nearly cancel (y_2 chosen so that the sum is about 0), where the bound on
+ * the rounding, not the value, carries the enclosure. */
+static void test_dot3(void **state)
+{
+    (void)state;
+    uint64_t s = tu_seed(SEED) ^ 0x646f7433ull;
+    long count = (long)(COUNT * tu_scale()), checked = 0, empty = 0;
+    if (count < 1)
+        count = 1;
+    mpfr_t e, p, S;
+    mpfr_inits2(4400, e, p, S, (mpfr_ptr)0);
+    for (long i = 0; i < count; i++) {
+        double x[3], y[3];
+        for (int k = 0; k < 3; k++)
+            x[k] = gen_double(&s, 0), y[k] = gen_double(&s, 0);
+        if (i % 3 == 0 && x[2] != 0)
+            y[2] = -(x[0] * y[0] + x[1] * y[1]) / x[2];
+        iv_t r = iv_dot3(x, y);
+        int finite = 1;
+        for (int k = 0; k < 3; k++)
+            finite &= isfinite(x[k]) && isfinite(y[k]);
+        if (!finite) {
+            if (!iv_is_empty(r))
+                fail_msg("iv_dot3 of a non-finite operand = [%a, %a] (seed %llu, case %ld)",
+                         r.lo, r.hi, (unsigned long long)tu_seed(SEED), i);
+            empty++;
+            continue;
+        }
+        mpfr_set_zero(e, 1);
+        mpfr_set_zero(S, 1);
+        for (int k = 0; k < 3; k++) {
+            mpfr_set_d(p, x[k], MPFR_RNDN);
+            mpfr_mul_d(p, p, y[k], MPFR_RNDN); /* exact at this precision */
+            mpfr_add(e, e, p, MPFR_RNDN);
+            mpfr_abs(p, p, MPFR_RNDN);
+            mpfr_add(S, S, p, MPFR_RNDN);
+        }
+        if (iv_is_empty(r)) {
+            /* only where the doubles overflow: sum |x_i y_i| near DBL_MAX */
+            if (mpfr_cmp_d(S, 0x1p1020) < 0)
+                fail_msg("iv_dot3((%a, %a, %a), (%a, %a, %a)) empty, sum |x_i y_i| = %g "
+                         "(seed %llu, case %ld)",
+                         x[0], x[1], x[2], y[0], y[1], y[2], mpfr_get_d(S, MPFR_RNDN),
+                         (unsigned long long)tu_seed(SEED), i);
+            empty++;
+            continue;
+        }
+        /* tight: a few ulps of S wide, or unbounded only next to the overflow */
+        double width = mpfr_get_d(S, MPFR_RNDU) * 0x1p-48 + 0x1p-1017;
+        int tight = isfinite(r.lo) && isfinite(r.hi) ? r.hi - r.lo <= width
+                                                     : mpfr_cmp_d(S, 0x1p1020) >= 0;
+        if (mpfr_cmp_d(e, r.lo) < 0 || mpfr_cmp_d(e, r.hi) > 0 || !tight)
+            fail_msg("iv_dot3((%a, %a, %a), (%a, %a, %a)) = [%a, %a], exact %a "
+                     "(seed %llu, case %ld)",
+                     x[0], x[1], x[2], y[0], y[1], y[2], r.lo, r.hi, mpfr_get_d(e, MPFR_RNDN),
+                     (unsigned long long)tu_seed(SEED), i);
+        checked++;
+    }
+    mpfr_clears(e, p, S, (mpfr_ptr)0);
+    printf("dot3 %ld cases: %ld enclosures checked, %ld empty (not finite)\n", count, checked,
+           empty);
+    assert_true(checked >= count / 3);
+}
+
 static void test_exact_cases(void **state)
 {
     (void)state;
@@ -1260,6 +1328,7 @@ int main(void)
         cmocka_unit_test(test_neg),
         cmocka_unit_test(test_mul),
         cmocka_unit_test(test_mul_point),
+        cmocka_unit_test(test_dot3),
         cmocka_unit_test(test_div),
         cmocka_unit_test(test_sqr),
         cmocka_unit_test(test_powi),

@@ -2,8 +2,9 @@
 # What beams save: the render with and without --no-beams, in instructions.
 #   bash bench/beams.sh [--build DIR] [--size WxH] [--method M] [--scenes "..."] [--out NAME]
 # For each scene (default: the eight comparison surfaces and the CSG union) the octree is
-# built once (the scene's [octree] settings, ivoct build --save); then callgrind counts the
-# instructions of `ivoct render --octree S.ivo --threads 1` at --size (default 300x300)
+# built once as ivoct render builds it (the scene's [octree] settings and ilie, ivoct
+# build --save); then callgrind counts the instructions of
+# `ivoct render --octree S.ivo --threads 1` at --size (default 300x300)
 # with beams (the default) and with --no-beams, and at 1x1 (loading the scene and the
 # octree, and the leaf tapes of a CSG scene: the same in both).  The render alone is the
 # difference; wall times on a shared machine move too much to compare a few percent.
@@ -47,7 +48,8 @@ instr() {
     echo "|---|---:|---:|---:|---:|---:|---:|"
     for s in $scenes; do
         ini=$root/scenes/$s.ini
-        "$bin" build "$ini" --save "$tmp/$s.ivo" --quiet
+        # as ivoct render builds it for itself (ray_octree_params): the scene's tests and ilie
+        "$bin" build "$ini" --tests interval,lipschitz,ilie --save "$tmp/$s.ivo" --quiet
         common=(render "$ini" --octree "$tmp/$s.ivo" --threads 1 --method "$method" --quiet)
         base=$(instr "${common[@]}" --size 1x1)
         nb=$(instr "${common[@]}" --size "$size" --no-beams --png "$tmp/nb.png")

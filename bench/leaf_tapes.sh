@@ -3,8 +3,9 @@
 #   bash bench/leaf_tapes.sh [--build DIR] [--size WxH] [--reps N] [--threads N]
 #                            [--scenes "csg-64-spheres thin-shell"] [--out NAME]
 # For each scene (those whose tapes have min, max or abs): the octree is built once
-# (the scene's [octree] settings, ivoct build --save), then the same render (scene
-# camera, newton-ah and mitchell) is timed with leaf tapes and with --no-leaf-tapes,
+# as ivoct render builds it (the scene's [octree] settings and ilie, ivoct build --save),
+# then the same render (scene camera, newton-ah and mitchell) is timed with leaf tapes
+# and with --no-leaf-tapes,
 # interleaved so both see the same load; each time is the best of --reps renders
 # (default 3): the stats' time_s (the render alone) plus, on the leaf-tape side,
 # leaf_tapes_time_s (building the leaf tapes). The images must be identical: the script fails
@@ -50,7 +51,8 @@ csv=$out/$name.csv
 echo "scene,method,size,threads,leaf_tapes_s,root_tape_s,speedup" > "$csv"
 for s in $scenes; do
     scene=$root/scenes/$s.ini
-    "$bin" build "$scene" --quiet --save "$tmp/$s.ivo"
+    # as ivoct render builds it for itself (ray_octree_params): the scene's tests and ilie
+    "$bin" build "$scene" --quiet --tests interval,lipschitz,ilie --save "$tmp/$s.ivo"
     for m in $methods; do
         best_lt= best_rt=
         for ((r = 0; r < reps; r++)); do

@@ -3,13 +3,15 @@
 #   bash bench/ray.sh [--build DIR] [--size WxH] [--reps N] [--surfaces "sphere gumdrop"]
 #                     [--methods "mitchell lipschitz"] [--tests LIST] [--out NAME]
 #                     [--baseline DIR] [--no-vdb]
-# For each comparison surface: the octree is built once with the scene's [octree]
-# settings (ivoct build --save: the build time is reported apart), then for each method
+# For each comparison surface: the octree is built once as ivoct render builds it for
+# itself, the scene's [octree] settings with ilie added to its tests (ray_octree_params:
+# every scene here has the tests interval, lipschitz; ivoct build --save: the build time
+# is reported apart), then for each method
 # the same render (scene camera, --size, default 300x300) is timed with the saved octree
 # (2 threads and 1 thread) and with --no-octree (2 threads), interleaved so both sides see
 # the same machine load; each time is the best of --reps runs (default 2) of the render
-# alone (the stats' time_s: no loading, no output).  --tests overrides the scenes' [octree]
-# tests for the build (e.g. interval,lipschitz,ilie: leaves with slabs).  Writes
+# alone (the stats' time_s: no loading, no output).  --tests overrides those tests for
+# the build (e.g. interval,lipschitz: leaves without slabs).  Writes
 # bench/results/NAME.csv and NAME.md (a Markdown table); NAME defaults to ray.
 # Then NAME-florez.md: the same one-thread times in the layout of Flórez's table
 # (rows the methods, columns the surfaces; with the octree, without it, the ratio to
@@ -32,7 +34,7 @@ size=300x300
 reps=2
 surfaces="sphere drop chubs crosscap gumdrop horned-cube mcmullen-k3 kusner-schmitt"
 methods="mitchell newton newton-ah mrfro mrfro-newton lipschitz sampling"
-tests=
+tests=interval,lipschitz,ilie
 name=ray
 baseline=
 vdb=1
@@ -89,7 +91,7 @@ echo "surface,method,build_s,leaves,octree_2t_s,octree_1t_s,none_2t_s,speedup_2t
 echo "load average at start: $(cut -d' ' -f1-3 /proc/loadavg)" >"$out/$name.load"
 for s in $surfaces; do
     scene=$root/scenes/$s.ini
-    "$bin" build "$scene" --threads 2 ${tests:+--tests "$tests"} --save "$tmp/$s.ivo" \
+    "$bin" build "$scene" --threads 2 --tests "$tests" --save "$tmp/$s.ivo" \
         --stats "$tmp/b.json" --quiet
     read -r build_s leaves < <(python3 -c 'import json,sys; b=json.load(open(sys.argv[1])); print(b["time_s"], b["leaves"])' "$tmp/b.json")
     light=$(light_of "$scene")

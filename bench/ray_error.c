@@ -328,6 +328,9 @@ int main(int argc, char **argv)
                 cur_surface, W, H, R.time_s, R.n_in, R.n_hit, R.n_amb);
 
         oct_params_t op = s.octree;
+        /* every render of the run reuses it, as a saved octree would be
+         * reused: with slabs, as ivoct render builds it for many rays */
+        ray_octree_params(&op, INFINITY);
         if (depth >= 0)
             op.depth = depth;
         op.threads = threads;

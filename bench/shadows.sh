@@ -3,9 +3,10 @@
 #   bash bench/shadows.sh [--build DIR] [--size WxH] [--reps N] [--threads N]
 #                         [--methods "newton-ah lipschitz"] [--scenes "..."] [--out NAME]
 # For each scene (default: the eight comparison surfaces and the CSG union) the octree is
-# built once (the scene's [octree] settings, ivoct build --save); then the render (scene
-# camera, each method) is timed without a light and with one (--light: to the side of
-# the target, as far from it as the eye, as in tests/test_ray_shadows.c),
+# built once as ivoct render builds it (the scene's [octree] settings and ilie, ivoct
+# build --save); then the render (scene camera, each method) is timed without a light
+# and with one (--light: to the side of the target, as far from it as the eye, as in
+# tests/test_ray_shadows.c),
 # interleaved so both see the same load; each time is the best of --reps renders (default
 # 3), the stats' time_s (the render alone). Reported: both times, their ratio, the tape
 # passes of the primary rays and of the shadow rays (shadow_tape_evals: counts, not
@@ -51,7 +52,8 @@ csv=$out/$name.csv
 echo "scene,method,size,threads,light,no_light_s,light_s,ratio,primary_evals,shadow_evals,evals_ratio,hits,shadowed,undecided" >"$csv"
 for s in $scenes; do
     scene=$root/scenes/$s.ini
-    "$bin" build "$scene" --quiet --save "$tmp/$s.ivo"
+    # as ivoct render builds it for itself (ray_octree_params): the scene's tests and ilie
+    "$bin" build "$scene" --quiet --tests interval,lipschitz,ilie --save "$tmp/$s.ivo"
     light=$(light_of "$scene")
     for m in $methods; do
         best0= best1=

@@ -244,6 +244,16 @@ typedef struct ray_octree_source {
 
 ray_source_t ray_octree_source(ray_octree_source_t *os, const oct_tree_t *tree);
 
+/* The build of an octree for a render that casts `rays` rays (primary and
+ * shadow): from RAY_SLAB_RAYS on, p's tests get ILIE added and its slabs are
+ * kept, so that every leaf has a slab and the octree source narrows each
+ * ray's segment of a leaf to it (most segments to nothing, for the rays that
+ * pass by the surface); fewer, p is left as it is.  The slabs make the build
+ * 1.3-3.6x slower and each ray 1.4-1.9x faster, so they pay from a few
+ * 300 x 300 images on: ray/README.md, "Slabs for rendering". */
+#define RAY_SLAB_RAYS 524288.0 /* 2^19: e.g. 1024 x 512, or 6 frames of 300 x 300 */
+void ray_octree_params(oct_params_t *p, double rays);
+
 /* A margin for oct_leaf_tapes_build that covers every point the root finders
  * evaluate for a leaf's segment, for the rays of cam and of every turntable
  * view of it (ray_camera_orbit): how far those points can lie outside the

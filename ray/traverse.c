@@ -222,19 +222,14 @@ static void expand(const oct_tree_t *tree, trav_state_t *st, const entry_t *p, d
 }
 
 /* Narrow [*lo, *hi] to the t where d_lo <= n·(o + t·d) <= d_hi: with
- * A ∋ n·o and B ∋ n·d, t ∈ ([d_lo, d_hi] − A) / B when 0 ∉ B.  When B may be
- * 0 the slab does not narrow, but the leaf is dropped when n·(o + T·d) over
- * the whole range T provably misses [d_lo, d_hi].  Returns 0 when the ray
- * provably misses the slab inside the range. */
+ * A ∋ n·o and B ∋ n·d (iv_dot3), t ∈ ([d_lo, d_hi] − A) / B when 0 ∉ B.
+ * When B may be 0 the slab does not narrow, but the leaf is dropped when
+ * n·(o + T·d) over the whole range T provably misses [d_lo, d_hi].  Returns
+ * 0 when the ray provably misses the slab inside the range. */
 static int slab_narrow(const oct_slab_t *s, const double o[3], const double d[3], double *lo,
                        double *hi)
 {
-    iv_t A = iv_point(0.0), B = iv_point(0.0);
-    for (int a = 0; a < 3; a++) {
-        iv_t n = iv_point(s->n[a]);
-        A = iv_add(A, iv_mul(n, iv_point(o[a])));
-        B = iv_add(B, iv_mul(n, iv_point(d[a])));
-    }
+    iv_t A = iv_dot3(s->n, o), B = iv_dot3(s->n, d);
     iv_t D = iv_make(s->d_lo, s->d_hi);
     if (B.lo > 0 || B.hi < 0) {
         iv_t T = iv_div(iv_sub(D, A), B);
@@ -386,6 +381,14 @@ void ray_packet_walk(const ray_octree_source_t *os, ray_packet_ws_t *ws, const d
     for (int r = 0; r < PK; r++)
         p.t_max[r] = r < n ? t_max[r] : -INFINITY;
     packet_walk_in_use()(&p);
+}
+
+void ray_octree_params(oct_params_t *p, double rays)
+{
+    if (!(rays >= RAY_SLAB_RAYS))
+        return;
+    p->tests |= OCT_TEST_ILIE;
+    p->slabs_unused = 0;
 }
 
 ray_source_t ray_octree_source(ray_octree_source_t *os, const oct_tree_t *tree)

@@ -260,6 +260,8 @@ assert d["octree"] is True and f["octree"] is True and n["octree"] is False
 for s in (d, f):
     assert 0 < s["leaves_visited"] <= s["segments"] + 4 * s["hits"], s
     assert s["octree_depth"] == 6 and s["octree_leaves"] > 0
+    # 48 x 40 rays are far too few for slabs to pay (ray_octree_params)
+    assert s["octree_slabs"] is False, s
 assert d["octree_source"] == "built" and d["build_time_s"] > 0 and d["time_s"] > 0
 assert f["octree_source"] == sys.argv[4] and "build_time_s" not in f
 assert n["leaves_visited"] == 0 and "build_time_s" not in n and "octree_source" not in n
@@ -267,6 +269,22 @@ assert d["hits"] == f["hits"] == n["hits"] and d["rays"] == 48 * 40
 assert d["tape_evals"] < n["tape_evals"]
 EOF
     done
+    # from 2^19 rays on the render's own octree has slabs (ray_octree_params), the octree
+    # ivoct build makes with ilie among its tests: the same image from either
+    if run 0 "build --save with slabs" -- build "$G" --tests interval,lipschitz,ilie \
+        --save "$TMP/gs.ivo" --quiet; then
+        run 0 "render 2^19 rays" -- render "$G" --method lipschitz --size 1024x512 \
+            --png "$TMP/ds.png" --stats "$TMP/ds.json" --quiet
+        run 0 "render 2^19 rays, --octree" -- render "$G" --octree "$TMP/gs.ivo" \
+            --method lipschitz --size 1024x512 --png "$TMP/fs.png" --stats "$TMP/fs.json" --quiet
+        cmp -s "$TMP/ds.png" "$TMP/fs.png" && ok || fail "slabs: PNG of the built and the loaded octree differ"
+        "$PY" - "$TMP/ds.json" "$TMP/fs.json" <<'EOF' && ok || fail "slabs: octree stats (above)"
+import json, sys
+d, f = (json.load(open(p)) for p in sys.argv[1:3])
+assert d["octree_slabs"] is True and f["octree_slabs"] is True, (d, f)
+assert d["octree_leaves"] == f["octree_leaves"] and d["hits"] == f["hits"], (d, f)
+EOF
+    fi
     # 1 and 2 threads with the octree: identical files
     for src in default file; do
         extra=()

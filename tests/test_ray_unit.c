@@ -58,6 +58,37 @@ static double dot(const double a[3], const double b[3])
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
 
+/* ray_octree_params: slabs from RAY_SLAB_RAYS rays on, and then the built
+ * tree has a slab array; below (or NaN), the params are left as they were. */
+static void test_octree_params(void **state)
+{
+    (void)state;
+    oct_params_t base;
+    oct_params_default(&base);
+    base.tests = OCT_TEST_INTERVAL | OCT_TEST_LIPSCHITZ;
+    base.slabs_unused = 1;
+    base.depth = 4;
+    const double few[] = {0, 300.0 * 300.0, RAY_SLAB_RAYS - 1, NAN};
+    for (size_t k = 0; k < sizeof few / sizeof few[0]; k++) {
+        oct_params_t p = base;
+        ray_octree_params(&p, few[k]);
+        assert_memory_equal(&p, &base, sizeof p);
+    }
+    oct_params_t p = base;
+    ray_octree_params(&p, RAY_SLAB_RAYS);
+    assert_int_equal(p.tests, base.tests | OCT_TEST_ILIE);
+    assert_int_equal(p.slabs_unused, 0);
+    tape_t *t = compile("x^2 + y^2 + z^2 - 1");
+    const double box[6] = {-1.5, 1.5, -1.5, 1.5, -1.5, 1.5};
+    oct_tree_t *tree = NULL;
+    ivoct_error_t err;
+    assert_int_equal(oct_build(t, box, &p, &tree, &err), 0);
+    assert_non_null(tree->slabs);
+    assert_true(tree->n_leaves > 0);
+    oct_free(tree);
+    tape_free(t);
+}
+
 static void test_camera(void **state)
 {
     (void)state;
@@ -626,6 +657,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_method_names),      cmocka_unit_test(test_camera),
+        cmocka_unit_test(test_octree_params),
         cmocka_unit_test(test_clip),              cmocka_unit_test(test_root_cases),
         cmocka_unit_test(test_root_edges),        cmocka_unit_test(test_source_seam),
         cmocka_unit_test(test_threads_identical), cmocka_unit_test(test_singular_normal),

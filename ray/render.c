@@ -335,9 +335,6 @@ typedef struct tracer {
     ray_segment_t late[LATE_MAX];
 } tracer_t;
 
-/* The roots wanted are those before t_end (INFINITY for a primary ray, 1 for
- * a shadow ray: the light); with `any` the first hit found ends the search
- * (a shadow ray asks whether there is a root, not where the first one is). */
 /* How many segments from src a tracer searches together: a primary ray's
  * one at a time; a shadow ray's two, the first grown into a run while it
  * waits, but one at a time where the octree's slabs narrow them: their gaps
@@ -351,6 +348,9 @@ static int tracer_batch(const ray_source_t *src, int any)
     return any && !slabs ? BATCH : 1;
 }
 
+/* The roots wanted are those before t_end (INFINITY for a primary ray, 1 for
+ * a shadow ray: the light); with `any` the first hit found ends the search
+ * (a shadow ray asks whether there is a root, not where the first one is). */
 static void tracer_init(tracer_t *tr, const tape_t *tape, tape_ws_t *ws,
                         const ray_render_opts_t *opts, const double eye[3], const double d[3],
                         double t_end, int any, int batch, counters_t *cnt)
@@ -450,8 +450,9 @@ static void tracer_search(tracer_t *tr)
 
 /* The next segment of the ray, front to back: searched once batch wait.
  *
- * A ray that asks only whether there is a root (any: a shadow ray) searches
- * a run of segments as one: the search of [t_in, t_out] of the run proves a
+ * A ray that asks only whether there is a root (any: a shadow ray), and
+ * whose segments wait in twos (tracer_batch: no slabs), searches a run of
+ * segments as one: the search of [t_in, t_out] of the run proves a
  * root only where f has one, and misses none, whatever lies between its
  * leaves.  Most of a lit shadow ray's run hugs the surface near q, where f
  * along the ray is monotone: one pass over the run excludes it, where one

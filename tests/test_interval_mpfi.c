@@ -1059,9 +1059,9 @@ static void test_mul_point(void **state)
 /* iv_dot3 against the exact dot product (MPFR at a precision where every
  * product and sum of doubles is exact): the enclosure holds it, is at most a
  * few ulps of sum |x_i y_i| wide (unbounded only next to the overflow), and
- * is empty only where an operand is not finite or the doubles overflow.  A third of the cases
- * nearly cancel (y_2 chosen so that the sum is about 0), where the bound on
- * the rounding, not the value, carries the enclosure. */
+ * is empty only where an operand is not finite or the doubles overflow.  A
+ * third of the cases nearly cancel (y_2 chosen so that the sum is about 0),
+ * where the bound on the rounding, not the value, carries the enclosure. */
 static void test_dot3(void **state)
 {
     (void)state;

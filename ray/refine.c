@@ -10,13 +10,15 @@
  * where to look can be guessed by any means.  Three phases, cheapest first:
  *  1. locate: plain double evaluations (tape_eval_point, a small fraction of
  *     an interval pass) find where the double value of f changes sign —
- *     Newton from the derivative estimates the caller has, then secant steps
- *     with guards around each estimate, 8 points a pass;
+ *     first the root of the cubic through both ends with the derivative
+ *     estimates the caller has, then secant steps, with guards around each
+ *     estimate, 8 points a pass;
  *  2. certify: one interval pass at that point and a ladder of points a few
  *     ulps before and after it; on a well-conditioned root this ends it;
  *  3. otherwise (the sign of f is uncertain over more than a few ulps: a
  *     grazing ray, or the guess was off), interval passes of secant estimates
- *     with guards, or 7 equally spaced points, until the bracket is 4 ulps.
+ *     with guards, or 7 points closing in on the end in the band, until the
+ *     bracket is 4 ulps.
  *
  * Every step of a refinement asks for at most RAY_BATCH points, and a ray's
  * points are too few to fill the evaluator's lanes.  So refine_batch takes
@@ -75,6 +77,26 @@ static void start(refinement_t *s, const refine_job_t *j)
     }
 }
 
+/* The root in (0, 1) of the cubic that takes the values fa, fb and the
+ * slopes h dfa, h dfb at 0 and 1 (Hermite), by Newton's method from u; NaN
+ * when it does not settle inside. */
+static double hermite_root(double fa, double fb, double sa, double sb, double u)
+{
+    for (int i = 0; i < 8; i++) {
+        double u2 = u * u, u3 = u2 * u;
+        double p = fa * (2 * u3 - 3 * u2 + 1) + sa * (u3 - 2 * u2 + u) + fb * (3 * u2 - 2 * u3) +
+                   sb * (u3 - u2);
+        double dp = 6 * (fa - fb) * (u2 - u) + sa * (3 * u2 - 4 * u + 1) + sb * (3 * u2 - 2 * u);
+        double next = u - p / dp;
+        if (!(next > 0 && next < 1))
+            return NAN;
+        if (fabs(next - u) <= 0x1p-50)
+            return next;
+        u = next;
+    }
+    return NAN;
+}
+
 /* Phase 1's next points (the phase over: its guess in x). */
 static void locate_points(refinement_t *s)
 {
@@ -94,11 +116,47 @@ static void locate_points(refinement_t *s)
     if (!(x > a && x < b))
         x = m;
     double e = isfinite(s->xprev) ? fabs(x - s->xprev) : (b - a) / 64;
-    const double cand[RAY_BATCH] = {m,           x,           x - e / 16,    x + e / 16,
-                                    x - e / 1024, x + e / 1024, x - e / 65536, x + e / 65536};
-    for (int k = 0; k < RAY_BATCH; k++)
-        if (cand[k] > a && cand[k] < b)
-            s->t[s->n++] = cand[k];
+    if (s->it == 0 && isfinite(dfa) && isfinite(dfb)) {
+        /* with both slopes, the cubic through both ends (Hermite) is far
+         * nearer than Newton from one end: its error goes as (b - a)^4,
+         * Newton's as (b - a)^2.  x moves there, and its guards span 2^-26
+         * to 2^-14 of the distance between the two guesses */
+        double u = hermite_root(fa, fb, (b - a) * dfa, (b - a) * dfb, (x - a) / (b - a));
+        double xh = a + u * (b - a);
+        if (xh > a && xh < b) {
+            e = fabs(xh - x) / 1024;
+            x = xh;
+        }
+    }
+    /* the nearest guards no nearer than 4 ulps: where x is that close, one
+     * of them is likely across the root, which ends the phase */
+    e = fmax(e, 0x1p18 * ulp(x));
+    /* x, then its guards outwards on either side, then m: a guard that rounds
+     * to the one before it on its side (a few ulps from the root) is left out */
+    if (x > a && x < b)
+        s->t[s->n++] = x;
+    for (int side = -1; side <= 1; side += 2) {
+        double prev = x;
+        for (double r = 65536; r >= 16; r /= 64) {
+            double t = x + side * (e / r);
+            if (t > a && t < b && t != prev)
+                s->t[s->n++] = t;
+            prev = t;
+        }
+    }
+    if (m > a && m < b && m != x)
+        s->t[s->n++] = m;
+    /* the lanes left free go to equally spaced points: near the root, where
+     * the values are mostly rounding, they shrink the bracket by their
+     * number + 1 whatever the values say */
+    const int spaced = RAY_BATCH - s->n;
+    double prev = a;
+    for (int k = 1; k <= spaced; k++) {
+        double t = a + (b - a) * ((double)k / (spaced + 1));
+        if (t > prev && t < b)
+            s->t[s->n++] = t;
+        prev = t;
+    }
     if (s->n == 0)
         s->x = m, s->phase = CERTIFY;
     else
@@ -135,14 +193,18 @@ static void locate_update(refinement_t *s)
 /* The lanes of phases 2 and 3 (L.n = 0: the phase has none). */
 static void certify_lanes(refinement_t *s)
 {
-    /* phase 2: x and a ladder of ulps around it (sa lies before x) */
-    static const double K[RAY_BATCH] = {-32, -8, -3, -2, -1, 0, 1, 4};
+    /* phase 2: x and a ladder of ulps around it (sa lies before x).  Where
+     * the certified sign ends lies mostly within 12 ulps before x and 4
+     * after (the comparison surfaces); no two steps there are wider than 4
+     * ulps, so wherever it ends in that range the bracket is done.  -32
+     * catches wider bands.  Interval lanes cost by the lane: 6, not 8 */
+    static const double K[] = {-32, -12, -8, -4, 0, 4};
     s->L.n = 0;
     s->phase = NARROW;
     if (!(s->x > s->a && s->x < s->b))
         return;
     double u = ulp(fmax(fabs(s->a), fabs(s->b)));
-    for (int k = 0; k < RAY_BATCH; k++) {
+    for (int k = 0; k < (int)(sizeof K / sizeof K[0]); k++) {
         double t = s->x + K[k] * u;
         if (t > s->a && t < s->b)
             lane_point(&s->L, t);
@@ -169,9 +231,18 @@ static void narrow_lanes(refinement_t *s)
         for (int k = 0; k < 6; k++)
             cand[n++] = g[k];
         s->nxprev = x;
-    } else {
+    } else if (b - a > 0x1p10 * ulp(fmax(fabs(a), fabs(b)))) {
         /* the values tell nothing (b in the band where the sign is
-         * uncertain): 7 equally spaced points, the bracket shrinks 8 times */
+         * uncertain), and a is far: the boundary is most likely near b, at
+         * the edge of the band around the root.  7 points closing in on b
+         * geometrically, 1/2 to 2^-19 of the bracket before it: the bracket
+         * shrinks 2 to 2^19 times */
+        for (int k = 1; k < RAY_BATCH; k++)
+            cand[n++] = b - (b - a) * ldexp(1.0, 2 - 3 * k);
+        s->nxprev = NAN;
+    } else {
+        /* the values tell nothing: 7 equally spaced points, the bracket
+         * shrinks 8 times */
         for (int k = 1; k < RAY_BATCH; k++)
             cand[n++] = a + (b - a) * ((double)k / RAY_BATCH);
         s->nxprev = NAN;

@@ -12,6 +12,11 @@
  *  - the jobs of all the scenes in one call of refine_batch, in a random
  *    order: their tapes and rays differ from job to job, and there are more
  *    of them than one batch runs side by side;
+ *  - what a refinement promises (ray/README.md, "Refinement of a monotone
+ *    bracket"), whatever its guesses were: the hit's bracket [t_lo, t_hi]
+ *    lies in the job's, is at most 4 ulps wide, f at the point p~(t_lo)
+ *    has the certified sign of the job's start (or t_lo is that start), and
+ *    at p~(t_hi) not that sign (or t_hi is the job's end);
  *  - ray_segment_of against the rule it names, on random segment lists with
  *    empty, reversed and non-finite segments;
  *  - ulp, by the bits, against nextafter.
@@ -44,6 +49,38 @@ typedef struct ray_case {
 } ray_case_t;
 
 static int same_bits(double a, double b) { return memcmp(&a, &b, sizeof a) == 0; }
+
+/* The certified sign of f at the rounded point p~(t) of the ray */
+static int sign_at(const ray_case_t *c, tape_ws_t *ws, double t)
+{
+    double p[3];
+    tape_ray_point(c->o, c->d, t, p);
+    iv_box_t box = {iv_point(p[0]), iv_point(p[1]), iv_point(p[2])};
+    iv_t v;
+    tape_eval_interval(c->tape, ws, 1, &box, &v);
+    return sgn(v);
+}
+
+/* The refinement's promise for the job of c, its hit in c->later */
+static void check_bracket(const ray_case_t *c, tape_ws_t *ws, const char *method, size_t i)
+{
+    const ray_result_t *r = &c->later;
+    const refine_job_t *j = &c->job;
+    if (r->kind != RAY_HIT_ROOT && r->kind != RAY_HIT_ZERO)
+        fail_msg("%s: ray %zu: a refinement gave kind %d", method, i, r->kind);
+    if (!(j->a <= r->t_lo && r->t_lo <= r->t && r->t <= r->t_hi && r->t_hi <= j->b))
+        fail_msg("%s: ray %zu: t %.17g [%.17g, %.17g] outside the job's [%.17g, %.17g]", method,
+                 i, r->t, r->t_lo, r->t_hi, j->a, j->b);
+    if (!tiny(r->t_lo, r->t_hi))
+        fail_msg("%s: ray %zu: bracket [%.17g, %.17g] wider than 4 ulps", method, i, r->t_lo,
+                 r->t_hi);
+    if (r->t_lo != j->a && sign_at(c, ws, r->t_lo) != j->sa)
+        fail_msg("%s: ray %zu: f at t_lo = %.17g is not of the start's certified sign", method,
+                 i, r->t_lo);
+    if (r->t_hi != j->b && sign_at(c, ws, r->t_hi) == j->sa)
+        fail_msg("%s: ray %zu: f at t_hi = %.17g is of the start's certified sign", method, i,
+                 r->t_hi);
+}
 
 static void test_side_by_side_equals_alone(void **state)
 {
@@ -134,6 +171,7 @@ static void test_side_by_side_equals_alone(void **state)
                          c->later.t_lo, c->later.t_hi, c->alone.kind, c->alone.t,
                          c->alone.t_lo, c->alone.t_hi);
             assert_int_equal(ray_segment_of(c->later.t_lo, 2, c->t0, c->t1), c->which_alone);
+            check_bracket(c, ws, ray_method_name((ray_method_t)m), i);
         }
         printf("%-13s %5d refinements set aside (%llu passes side by side), %d hits without "
                "one\n",

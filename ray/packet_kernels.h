@@ -194,9 +194,14 @@ void K(packet_walk)(packet_rays_t *p)
             e->depth = depth;
             e->active = kact;
 #ifdef __GNUC__
-            /* its children's words, read when it is popped */
+            /* what is read when it is popped: an interior cell's children's
+             * words, a leaf's slab (the leaves' records are far apart in
+             * memory, and a leaf is most often met by one ray of the packet) */
             if (OCT_NODE_KIND(w) == OCT_INTERIOR && OCT_NODE_VALUE(w) < tree->n_nodes)
                 __builtin_prefetch(tree->nodes + OCT_NODE_VALUE(w));
+            else if (OCT_NODE_KIND(w) == OCT_LEAF && tree->slabs &&
+                     OCT_NODE_VALUE(w) < tree->n_leaves)
+                __builtin_prefetch(tree->slabs + OCT_NODE_VALUE(w));
 #endif
         }
     }

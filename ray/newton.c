@@ -48,7 +48,7 @@ int newton_case(ctx_t *c, node_t *np, ray_result_t *res)
     if (c->any && sb == -sa)
         return hit(res, RAY_HIT_ROOT, 0.5 * n.a + 0.5 * n.b, n.a, n.b);
     if (!tiny(n.a, n.b)) {
-        return (int)refine(c, n.a, n.b, sa, n.ga, n.dga, n.gb, n.dgb, proven, res);
+        return (int)refine(c, &n, sa, proven, res);
     }
     int kind = proven || sb == -sa ? RAY_HIT_ROOT : RAY_HIT_ZERO;
     return hit(res, (ray_hit_kind_t)kind, sb == S_ZERO ? n.b : 0.5 * n.a + 0.5 * n.b, n.a, n.b);

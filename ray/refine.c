@@ -72,6 +72,16 @@ static void start(refinement_t *s, const refine_job_t *j)
         s->xprev = NAN;
         s->pos = s->fa > 0;
         s->it = 0;
+        /* the midpoint's value says which half holds the double sign change:
+         * the guesses start from that half (a sixteenth of the error for the
+         * cubic through its ends) */
+        double fm = iv_mid(j->gm);
+        if (j->m > s->la && j->m < s->lb && isfinite(fm)) {
+            if (s->pos ? fm > 0 : fm < 0)
+                s->la = j->m, s->fa = fm, s->dfa = j->dgm;
+            else
+                s->lb = j->m, s->fb = fm, s->dfb = j->dgm;
+        }
         if (!(s->fa > 0 || s->fa < 0) || !isfinite(s->fb))
             s->x = NAN, s->phase = CERTIFY;
     }
@@ -392,15 +402,17 @@ uint64_t refine_batch(refine_job_t *const *jobs, int n, tape_ws_t *ws)
     return passes;
 }
 
-ray_hit_kind_t refine(ctx_t *c, double a, double b, int sa, iv_t ga, double dga, iv_t gb,
-                      double dgb, int root, ray_result_t *res)
+ray_hit_kind_t refine(ctx_t *c, const node_t *n, int sa, int root, ray_result_t *res)
 {
-    refine_job_t j = {c->tape, c->o, c->d, a, b, sa, root, ga, gb, dga, dgb, res}, *one = &j;
+    refine_job_t j = {.tape = c->tape, .o = c->o, .d = c->d, .a = n->a, .b = n->b, .sa = sa,
+                      .root = root, .ga = n->ga, .gb = n->gb, .gm = n->gm, .m = n->m,
+                      .dga = n->dga, .dgb = n->dgb, .dgm = n->dgm, .out = res},
+                 *one = &j;
     if (c->defer && c->defer_ok) {
         /* set aside (ray_find_root_defer): the hit lies in [a, b] */
         *c->defer = j;
         c->deferred = 1;
-        return hit(res, RAY_HIT_ROOT, b, a, b);
+        return hit(res, RAY_HIT_ROOT, n->b, n->a, n->b);
     }
     c->evals += refine_batch(&one, 1, c->ws);
     return res->kind;
@@ -415,5 +427,5 @@ ray_hit_kind_t monotone_case(ctx_t *c, const node_t *n, ray_result_t *res)
         return RAY_MISS;
     if (c->any && is_sign(sa) && sb == -sa) /* a root in [a, b]: enough */
         return hit(res, RAY_HIT_ROOT, 0.5 * n->a + 0.5 * n->b, n->a, n->b);
-    return refine(c, n->a, n->b, sa, n->ga, n->dga, n->gb, n->dgb, 0, res);
+    return refine(c, n, sa, 0, res);
 }

@@ -193,18 +193,18 @@ typedef struct refine_job {
     double a, b;
     int sa;
     int root; /* a root is known to lie in [a, b]: the hit is RAY_HIT_ROOT */
-    iv_t ga, gb;
-    double dga, dgb;
+    iv_t ga, gb, gm;
+    double m, dga, dgb, dgm;
     ray_result_t *out; /* its kind, t, t_lo and t_hi are set */
 } refine_job_t;
 
-/* g monotone on [a, b], f at a of certified sign sa, b "not sa": the hit,
- * refined to a few ulps (see refine.c); a RAY_HIT_ROOT whatever the
- * refinement proves when root.  With c->defer and c->defer_ok the
- * refinement is set aside there instead (c->deferred): res is then the
+/* g monotone on n's [a, b], f at a of certified sign sa, b "not sa": the hit,
+ * refined to a few ulps (see refine.c) from what the node knows (its ends
+ * and midpoint, their values and derivative estimates); a RAY_HIT_ROOT
+ * whatever the refinement proves when root.  With c->defer and c->defer_ok
+ * the refinement is set aside there instead (c->deferred): res is then the
  * bracket, RAY_HIT_ROOT at t = b, until refine_batch runs it. */
-ray_hit_kind_t refine(ctx_t *c, double a, double b, int sa, iv_t ga, double dga, iv_t gb,
-                      double dgb, int root, ray_result_t *res);
+ray_hit_kind_t refine(ctx_t *c, const node_t *n, int sa, int root, ray_result_t *res);
 /* Run the n refinements side by side, their points of each step in shared
  * passes (per tape); each hit is the one refine() gives it alone.  Returns
  * the evaluator passes. */

@@ -10,9 +10,10 @@
  * where to look can be guessed by any means.  Three phases, cheapest first:
  *  1. locate: plain double evaluations (tape_eval_point, a small fraction of
  *     an interval pass) find where the double value of f changes sign —
- *     first the root of the cubic through both ends with the derivative
- *     estimates the caller has, then secant steps, with guards around each
- *     estimate, 8 points a pass;
+ *     first the root of the cubic through the ends of the half the
+ *     midpoint's value points to, with the derivative estimates the caller
+ *     has there, then secant steps, with guards around each estimate, 8
+ *     points a pass;
  *  2. certify: one interval pass at that point and a ladder of points a few
  *     ulps before and after it; on a well-conditioned root this ends it;
  *  3. otherwise (the sign of f is uncertain over more than a few ulps: a

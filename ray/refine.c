@@ -89,15 +89,15 @@ static void start(refinement_t *s, const refine_job_t *j)
 }
 
 /* The root in (0, 1) of the cubic that takes the values fa, fb and the
- * slopes h dfa, h dfb at 0 and 1 (Hermite), by Newton's method from u; NaN
- * when it does not settle inside. */
-static double hermite_root(double fa, double fb, double sa, double sb, double u)
+ * slopes ha, hb at 0 and 1 (Hermite; for [a, b], ha = (b - a) g'(a)), by
+ * Newton's method from u; NaN when it does not settle inside. */
+static double hermite_root(double fa, double fb, double ha, double hb, double u)
 {
     for (int i = 0; i < 8; i++) {
         double u2 = u * u, u3 = u2 * u;
-        double p = fa * (2 * u3 - 3 * u2 + 1) + sa * (u3 - 2 * u2 + u) + fb * (3 * u2 - 2 * u3) +
-                   sb * (u3 - u2);
-        double dp = 6 * (fa - fb) * (u2 - u) + sa * (3 * u2 - 4 * u + 1) + sb * (3 * u2 - 2 * u);
+        double p = fa * (2 * u3 - 3 * u2 + 1) + ha * (u3 - 2 * u2 + u) + fb * (3 * u2 - 2 * u3) +
+                   hb * (u3 - u2);
+        double dp = 6 * (fa - fb) * (u2 - u) + ha * (3 * u2 - 4 * u + 1) + hb * (3 * u2 - 2 * u);
         double next = u - p / dp;
         if (!(next > 0 && next < 1))
             return NAN;

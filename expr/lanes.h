@@ -57,6 +57,39 @@ static inline void iv_pow_bound_lanes(double *restrict m, size_t nl, unsigned e,
         out[k] = m[k] == 0.0 ? 0.0 : out[k];
 }
 
+/* iv_pow_bound_lanes with the direction per lane: rounded up where up[k] is
+ * 1.0, down where it is -1.0, the same bits.  The product is formed once and
+ * moved by up[k] times the widening (iv_up adds it, iv_down subtracts it:
+ * exact, the widening being positive), instead of two passes each with its
+ * own products: an odd power needs one direction per bound and lane. */
+static inline void iv_pow_bound_lanes_dir(double *restrict m, size_t nl, unsigned e,
+                                          const double *restrict up, double *restrict out)
+{
+    double base[IV_LANES_MAX];
+    for (size_t k = 0; k < nl; k++)
+        out[k] = 1.0, base[k] = m[k];
+    for (;;) {
+        if (e & 1u)
+            for (size_t k = 0; k < nl; k++) {
+                double p = out[k] * base[k];
+                double y = p + up[k] * (fabs(p) * 0x1p-52 + 0x1p-1074);
+                double dn = p == INFINITY ? DBL_MAX : y < 0.0 ? 0.0 : y;
+                out[k] = up[k] > 0.0 ? y : dn;
+            }
+        e >>= 1;
+        if (e == 0)
+            break;
+        for (size_t k = 0; k < nl; k++) {
+            double p = base[k] * base[k];
+            double y = p + up[k] * (fabs(p) * 0x1p-52 + 0x1p-1074);
+            double dn = p == INFINITY ? DBL_MAX : y < 0.0 ? 0.0 : y;
+            base[k] = up[k] > 0.0 ? y : dn;
+        }
+    }
+    for (size_t k = 0; k < nl; k++)
+        out[k] = m[k] == 0.0 ? 0.0 : out[k];
+}
+
 /* iv_powi([al, ah], e) for e >= 3 into [ol, oh], lanes 0..nl-1: odd powers are
  * increasing (the bounds' magnitudes, each raised in the direction its sign
  * needs), even ones monotone in |x| (the magnitudes' range); interval.c,
@@ -74,17 +107,23 @@ static inline void iv_powi_lanes(const double *restrict al, const double *restri
         mh[k] = odd ? fabs(ah[k]) : pos ? ah[k] : neg ? -al[k] : top;
     }
     /* an even power's bounds are ml^e down and mh^e up; an odd one's take the
-     * other direction too where a bound is negative */
-    iv_pow_bound_lanes(ml, nl, e, 0, dl);
-    iv_pow_bound_lanes(mh, nl, e, 1, uh);
+     * other direction where a bound is negative (-|a|^e rounded the other
+     * way), one pass per bound with the direction per lane */
     if (odd) {
-        double ul[IV_LANES_MAX], dh[IV_LANES_MAX];
-        iv_pow_bound_lanes(ml, nl, e, 1, ul);
-        iv_pow_bound_lanes(mh, nl, e, 0, dh);
+        double sl[IV_LANES_MAX], sh[IV_LANES_MAX];
         for (size_t k = 0; k < nl; k++) {
-            dl[k] = al[k] < 0.0 ? -ul[k] : dl[k];
-            uh[k] = ah[k] < 0.0 ? -dh[k] : uh[k];
+            sl[k] = al[k] < 0.0 ? 1.0 : -1.0;
+            sh[k] = ah[k] < 0.0 ? -1.0 : 1.0;
         }
+        iv_pow_bound_lanes_dir(ml, nl, e, sl, dl);
+        iv_pow_bound_lanes_dir(mh, nl, e, sh, uh);
+        for (size_t k = 0; k < nl; k++) {
+            dl[k] = al[k] < 0.0 ? -dl[k] : dl[k];
+            uh[k] = ah[k] < 0.0 ? -uh[k] : uh[k];
+        }
+    } else {
+        iv_pow_bound_lanes(ml, nl, e, 0, dl);
+        iv_pow_bound_lanes(mh, nl, e, 1, uh);
     }
     for (size_t k = 0; k < nl; k++) {
         int empty = (al[k] != al[k]) | (ah[k] != ah[k]);

@@ -13,9 +13,10 @@
  * lane must equal the scalar evaluation of the same tape on the same forms:
  * the same doubles bit for bit (a NaN matches any NaN).
  *
- * iv_powi_lanes and iv_pow_bound_lanes (expr/lanes.h) must give the bounds of
- * iv_powi and of the binary exponentiation it uses, for random intervals of
- * every sign and scale and every exponent 3..64.  ilie_excludes_boxes must
+ * iv_powi_lanes, iv_pow_bound_lanes and iv_pow_bound_lanes_dir (expr/lanes.h)
+ * must give the bounds of iv_powi and of the binary exponentiation it uses
+ * (the last with a random direction per lane), for random intervals of every
+ * sign and scale and every exponent 3..64.  ilie_excludes_boxes must
  * answer as ilie_excludes_box, and ilie_ws_bytes say what a workspace takes
  * from the heap. */
 #include <math.h>
@@ -315,11 +316,20 @@ static void test_powi_lanes(void **state)
                     m[nm++] = m[k];
             iv_pow_bound_lanes(m, nm, e, 0, dn);
             iv_pow_bound_lanes(m, nm, e, 1, up);
+            /* and with the direction per lane: the same bits as the pass of
+             * that direction */
+            double dir[IV_LANES_MAX], mixed[IV_LANES_MAX];
+            for (size_t k = 0; k < nm; k++)
+                dir[k] = tu_next(&rng) % 2 ? 1.0 : -1.0;
+            iv_pow_bound_lanes_dir(m, nm, e, dir, mixed);
             for (size_t k = 0; k < nm; k++) {
                 iv_t want = iv_powi(iv_point(m[k]), (int)e);
                 if (!same_double(dn[k], want.lo) || !same_double(up[k], want.hi))
                     fail_msg("iv_pow_bound_lanes(%a, %u) = %a, %a; iv_powi gives [%a, %a]", m[k],
                              e, dn[k], up[k], want.lo, want.hi);
+                if (!same_double(mixed[k], dir[k] > 0 ? up[k] : dn[k]))
+                    fail_msg("iv_pow_bound_lanes_dir(%a, %u, %g) = %a, not %a", m[k], e, dir[k],
+                             mixed[k], dir[k] > 0 ? up[k] : dn[k]);
                 checked++;
             }
         }

@@ -62,6 +62,12 @@ static inline void iv_pow_bound_lanes(double *restrict m, size_t nl, unsigned e,
  * moved by up[k] times the widening (iv_up adds it, iv_down subtracts it:
  * exact, the widening being positive), instead of two passes each with its
  * own products: an odd power needs one direction per bound and lane. */
+static inline double iv_lanes_round_dir(double p, double up) /* p >= 0 or NaN */
+{
+    double y = p + up * (fabs(p) * 0x1p-52 + 0x1p-1074);
+    double dn = p == INFINITY ? DBL_MAX : y < 0.0 ? 0.0 : y;
+    return up > 0.0 ? y : dn; /* iv_up(p), or iv_lanes_dn0(p) */
+}
 static inline void iv_pow_bound_lanes_dir(double *restrict m, size_t nl, unsigned e,
                                           const double *restrict up, double *restrict out)
 {
@@ -70,21 +76,13 @@ static inline void iv_pow_bound_lanes_dir(double *restrict m, size_t nl, unsigne
         out[k] = 1.0, base[k] = m[k];
     for (;;) {
         if (e & 1u)
-            for (size_t k = 0; k < nl; k++) {
-                double p = out[k] * base[k];
-                double y = p + up[k] * (fabs(p) * 0x1p-52 + 0x1p-1074);
-                double dn = p == INFINITY ? DBL_MAX : y < 0.0 ? 0.0 : y;
-                out[k] = up[k] > 0.0 ? y : dn;
-            }
+            for (size_t k = 0; k < nl; k++)
+                out[k] = iv_lanes_round_dir(out[k] * base[k], up[k]);
         e >>= 1;
         if (e == 0)
             break;
-        for (size_t k = 0; k < nl; k++) {
-            double p = base[k] * base[k];
-            double y = p + up[k] * (fabs(p) * 0x1p-52 + 0x1p-1074);
-            double dn = p == INFINITY ? DBL_MAX : y < 0.0 ? 0.0 : y;
-            base[k] = up[k] > 0.0 ? y : dn;
-        }
+        for (size_t k = 0; k < nl; k++)
+            base[k] = iv_lanes_round_dir(base[k] * base[k], up[k]);
     }
     for (size_t k = 0; k < nl; k++)
         out[k] = m[k] == 0.0 ? 0.0 : out[k];

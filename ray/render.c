@@ -771,16 +771,16 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
         ray_result_t sr[TILE * TILE], *to[TILE * TILE];
         const double *dirs[TILE * TILE];
         unsigned char placed[TILE * TILE];
-        int nw = 0; /* the hits whose whole shadow ray is searched */
+        int att[TILE * TILE], na = 0; /* the hits whose attached piece is tried */
+        double p0[TILE * TILE][3], q[TILE * TILE][3], w[TILE * TILE];
         for (int k = 0; k < nh; k++) {
             size_t i = hits[k];
-            double q[3];
-            placed[k] = ray_shadow_origin(cam->eye, img->dir + 3 * i, img->t[i], q) < t_lo[k];
+            placed[k] = ray_shadow_origin(cam->eye, img->dir + 3 * i, img->t[i], q[k]) < t_lo[k];
             if (!placed[k])
                 continue;
             double len = 0;
             for (int a = 0; a < 3; a++) {
-                ds[k][a] = q[a] - opts->light[a];
+                ds[k][a] = q[k][a] - opts->light[a];
                 len += ds[k][a] * ds[k][a];
             }
             len = sqrt(len);
@@ -795,19 +795,48 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
             const double *n = img->normal + 3 * i, *p = img->point + 3 * i;
             double to_light[3] = {opts->light[0] - p[0], opts->light[1] - p[1],
                                   opts->light[2] - p[2]};
-            double w = 0x1p-16 * img->t[i] / len;
-            if (dot3(n, to_light) * dot3(n, img->dir + 3 * i) > 0 && w < 0.5) {
-                double p0[3];
-                ray_point(opts->light, ds[k], 1 - w, p0);
-                attached_piece(tape, ws, src, state, &shadow_opts, p0, ds[k], w, &sr[k], &sc);
-                if (sr[k].kind != RAY_HIT_ROOT)
-                    sr[k].kind = RAY_MISS;
+            w[k] = 0x1p-16 * img->t[i] / len;
+            if (dot3(n, to_light) * dot3(n, img->dir + 3 * i) > 0 && w[k] < 0.5) {
+                ray_point(opts->light, ds[k], 1 - w[k], p0[k]);
+                att[na++] = k;
             }
-            if (sr[k].kind != RAY_HIT_ROOT) {
+        }
+        /* The attached pieces by the signs of f at their ends first: opposite
+         * certified signs at p0 and q prove a root between them, as a
+         * search's sign change does, for one interval pass per TAPE_BATCH / 2
+         * pieces instead of a search each.  The others are searched. */
+        for (int b = 0; b < na; b += TAPE_BATCH / 2) {
+            int m = na - b < TAPE_BATCH / 2 ? na - b : TAPE_BATCH / 2;
+            iv_box_t box[TAPE_BATCH];
+            iv_t f[TAPE_BATCH];
+            for (int j = 0; j < m; j++) {
+                const double *e[2] = {p0[att[b + j]], q[att[b + j]]};
+                for (int h = 0; h < 2; h++)
+                    box[2 * j + h] = (iv_box_t){iv_point(e[h][0]), iv_point(e[h][1]),
+                                                iv_point(e[h][2])};
+            }
+            tape_eval_interval(tape, ws, (size_t)(2 * m), box, f);
+            sc.evals++;
+            for (int j = 0; j < m; j++) {
+                int s0 = sgn(f[2 * j]);
+                if (is_sign(s0) && sgn(f[2 * j + 1]) == -s0)
+                    sr[att[b + j]].kind = RAY_HIT_ROOT;
+            }
+        }
+        for (int j = 0; j < na; j++) {
+            int k = att[j];
+            if (sr[k].kind == RAY_HIT_ROOT)
+                continue;
+            attached_piece(tape, ws, src, state, &shadow_opts, p0[k], ds[k], w[k], &sr[k], &sc);
+            if (sr[k].kind != RAY_HIT_ROOT)
+                sr[k].kind = RAY_MISS;
+        }
+        int nw = 0; /* the hits whose whole shadow ray is searched */
+        for (int k = 0; k < nh; k++)
+            if (placed[k] && sr[k].kind != RAY_HIT_ROOT) {
                 dirs[nw] = ds[k];
                 to[nw++] = &sr[k];
             }
-        }
         trace_rays(tape, ws, src, state, os, bw ? pw : NULL, &shadow_opts, opts->light, nw, dirs,
                    1.0, 1, to, &sc);
         for (int k = 0; k < nh; k++) {

@@ -391,6 +391,12 @@ int ray_render(const tape_t *tape, const ray_camera_t *cam, const ray_source_t *
                const ray_render_opts_t *opts, ray_image_t *img, ray_stats_t *stats,
                ivoct_error_t *err);
 
+/* The byte of a pixel's linear intensity c, gamma 2.2: exactly
+ * (unsigned char)(255 pow(c', 1/2.2) + 0.5) with c' = c clamped to [0, 1],
+ * for every c (NaN gives 0), at the cost of a table lookup but for c within
+ * 2^-30 of a step, where it is that formula. */
+unsigned char ray_srgb8(double c);
+
 /* Lambert + ambient shading of one pixel: normal n at a hit seen along d,
  * the side of the surface facing the eye lit; background where !hit.  The
  * light: a point light at `light` seen from the hit point p when light is not

@@ -192,22 +192,55 @@ static double dot3(const double a[3], const double b[3])
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
 
-static unsigned char to_srgb8(double c)
+/* The formula ray_srgb8 keeps to (ray.h). */
+static unsigned char srgb8_pow(double c)
 {
     c = c < 0 ? 0 : c > 1 ? 1 : c;
     return (unsigned char)(255.0 * pow(c, 1.0 / 2.2) + 0.5);
 }
 
+/* Where the formula steps: step[b] = ((b - 1/2) / 255)^2.2 for b = 1..255;
+ * step[0] = -1 and step[256] = 2 bound the search (the formula clamps c to
+ * [0, 1]).  A pixel's byte is the b with step[b] <= c < step[b + 1], found
+ * in 8 comparisons; within 2^-30 (relative) of a step, far more than the
+ * rounding of pow here and in the formula, the formula decides.  pow cost
+ * more than the rest of a hit's shading. */
+static double srgb_step[257];
+
 /* The background's bytes, computed once: most pixels of an image are
- * misses, and pow costs more than the rest of their shading. */
+ * misses. */
 static const double background[3] = {0.012, 0.014, 0.02};
 static unsigned char background_rgb[3];
-static once_flag background_once = ONCE_FLAG_INIT;
+static once_flag shade_once = ONCE_FLAG_INIT;
 
-static void background_init(void)
+static void shade_init(void)
 {
+    srgb_step[0] = -1;
+    for (int b = 1; b < 256; b++)
+        srgb_step[b] = pow((b - 0.5) / 255.0, 2.2);
+    srgb_step[256] = 2;
     for (int i = 0; i < 3; i++)
-        background_rgb[i] = to_srgb8(background[i]);
+        background_rgb[i] = srgb8_pow(background[i]);
+}
+
+static int near_step(double c, double step) { return fabs(c - step) <= 0x1p-30 * step; }
+
+/* ray_srgb8 once shade_init has run */
+static unsigned char srgb8(double c)
+{
+    int b = 0;
+    for (int h = 128; h > 0; h >>= 1)
+        if (srgb_step[b + h] <= c)
+            b += h;
+    if (near_step(c, srgb_step[b]) || near_step(c, srgb_step[b + 1]))
+        return srgb8_pow(c);
+    return (unsigned char)b;
+}
+
+unsigned char ray_srgb8(double c)
+{
+    call_once(&shade_once, shade_init);
+    return srgb8(c);
 }
 
 void ray_shade(const ray_camera_t *cam, const double *light, const double p[3],
@@ -216,8 +249,8 @@ void ray_shade(const ray_camera_t *cam, const double *light, const double p[3],
 {
     /* the side ∇f points to (f increasing: "outside") warm, the other cool */
     static const double warm[3] = {0.92, 0.55, 0.22}, cool[3] = {0.25, 0.45, 0.85};
+    call_once(&shade_once, shade_init);
     if (!hit) {
-        call_once(&background_once, background_init);
         memcpy(rgb, background_rgb, sizeof background_rgb);
         return;
     }
@@ -234,7 +267,7 @@ void ray_shade(const ray_camera_t *cam, const double *light, const double p[3],
     if (!(lambert > 0) || shadowed)
         lambert = 0;
     for (int i = 0; i < 3; i++)
-        rgb[i] = to_srgb8(base[i] * (0.15 + 0.85 * lambert));
+        rgb[i] = srgb8(base[i] * (0.15 + 0.85 * lambert));
 }
 
 /* ∇f/|∇f| from a gradient enclosure at the hit point.  Where the enclosure

@@ -527,6 +527,45 @@ static void test_singular_normal(void **state)
     tape_free(t);
 }
 
+/* ray_srgb8 against its formula, computed here with libm's pow: everywhere
+ * at random, and at and around each of its 255 steps, where the table hands
+ * over to the formula and where an off-by-one would show. */
+static unsigned char srgb8_formula(double c)
+{
+    c = c < 0 ? 0 : c > 1 ? 1 : c;
+    return (unsigned char)(255.0 * pow(c, 1.0 / 2.2) + 0.5);
+}
+
+static void test_srgb8(void **state)
+{
+    (void)state;
+    static const double edges[] = {-INFINITY, -1e300, -2, -1, -0.5, -0.0, 0.0, 1e-300, 1,
+                                   1.5, 2, 3, 1e300, INFINITY};
+    for (size_t k = 0; k < sizeof edges / sizeof edges[0]; k++)
+        assert_int_equal(ray_srgb8(edges[k]), srgb8_formula(edges[k]));
+    assert_int_equal(ray_srgb8(NAN), 0);
+    uint64_t x = 0x9e3779b97f4a7c15u;
+    for (int k = 0; k < 1000000; k++) {
+        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+        double c = (double)(x >> 11) * 0x1p-53 * 1.25 - 0.125;
+        assert_int_equal(ray_srgb8(c), srgb8_formula(c));
+    }
+    for (int b = 1; b < 256; b++) {
+        /* where the formula steps up to b (within the rounding of pow) */
+        double step = pow((b - 0.5) / 255.0, 2.2);
+        /* e ulps from it, and e * 2^-33 relative: out to 8 times the band
+         * around each step (2^-30) where the table hands over */
+        for (int e = -64; e <= 64; e++) {
+            double c = step;
+            for (int u = 0; u < abs(e); u++)
+                c = nextafter(c, e < 0 ? 0 : 2);
+            assert_int_equal(ray_srgb8(c), srgb8_formula(c));
+            c = step * (1 + e * 0x1p-33);
+            assert_int_equal(ray_srgb8(c), srgb8_formula(c));
+        }
+    }
+}
+
 /* ---- writers -------------------------------------------------------------------------------- */
 
 static int b64val(int ch)
@@ -678,6 +717,7 @@ int main(void)
         cmocka_unit_test(test_root_edges),        cmocka_unit_test(test_source_seam),
         cmocka_unit_test(test_threads_identical), cmocka_unit_test(test_singular_normal),
         cmocka_unit_test(test_parts),             cmocka_unit_test(test_writers),
+        cmocka_unit_test(test_srgb8),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -864,12 +864,26 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
             if (sr[k].kind != RAY_HIT_ROOT)
                 sr[k].kind = RAY_MISS;
         }
-        int nw = 0; /* the hits whose whole shadow ray is searched */
+        /* the hits whose whole shadow ray is searched, in the primary rays'
+         * order (blocks of PACKET_W x PACKET_H pixels): a packet's rays then
+         * end close together */
+        int hit_at[TILE * TILE]; /* by pixel of the tile: its hit, or -1 */
+        for (int k = 0; k < TILE * TILE; k++)
+            hit_at[k] = -1;
         for (int k = 0; k < nh; k++)
-            if (placed[k] && sr[k].kind != RAY_HIT_ROOT) {
-                dirs[nw] = ds[k];
-                to[nw++] = &sr[k];
-            }
+            hit_at[(int)(hits[k] / (size_t)W - (size_t)r0) * TILE +
+                   (int)(hits[k] % (size_t)W) - c0] = k;
+        int nw = 0;
+        for (int br = r0; br < r1; br += PACKET_H)
+            for (int bc = c0; bc < c1; bc += PACKET_W)
+                for (int row = br; row < br + PACKET_H && row < r1; row++)
+                    for (int col = bc; col < bc + PACKET_W && col < c1; col++) {
+                        int k = hit_at[(row - r0) * TILE + (col - c0)];
+                        if (k < 0 || !placed[k] || sr[k].kind == RAY_HIT_ROOT)
+                            continue;
+                        dirs[nw] = ds[k];
+                        to[nw++] = &sr[k];
+                    }
         trace_rays(tape, ws, src, state, os, bw ? pw : NULL, &shadow_opts, opts->light, nw, dirs,
                    1.0, 1, to, &sc);
         for (int k = 0; k < nh; k++) {

@@ -226,7 +226,7 @@ typedef struct reader {
     int bad;
 } reader_t;
 
-static const unsigned char *take(reader_t *r, size_t n)
+static inline const unsigned char *take(reader_t *r, size_t n)
 {
     if (r->bad || n > r->n - r->at) {
         r->bad = 1;
@@ -237,25 +237,29 @@ static const unsigned char *take(reader_t *r, size_t n)
     return q;
 }
 
-static uint64_t get_u64(reader_t *r)
+/* Little-endian values, their bytes shifted into place in one expression,
+ * which the compiler makes one load (and a byte swap on a big-endian host);
+ * a loop over the bytes stays a load, a shift and an or each, and was most
+ * of a large file's decoding.  0 past the end (r->bad is set). */
+static inline uint64_t get_u64(reader_t *r)
 {
     const unsigned char *c = take(r, 8);
-    uint64_t v = 0;
-    for (int i = 7; c && i >= 0; i--)
-        v = v << 8 | c[i];
-    return v;
+    if (!c)
+        return 0;
+    return (uint64_t)c[0] | (uint64_t)c[1] << 8 | (uint64_t)c[2] << 16 | (uint64_t)c[3] << 24 |
+           (uint64_t)c[4] << 32 | (uint64_t)c[5] << 40 | (uint64_t)c[6] << 48 |
+           (uint64_t)c[7] << 56;
 }
 
-static uint32_t get_u32(reader_t *r)
+static inline uint32_t get_u32(reader_t *r)
 {
     const unsigned char *c = take(r, 4);
-    uint32_t v = 0;
-    for (int i = 3; c && i >= 0; i--)
-        v = v << 8 | c[i];
-    return v;
+    if (!c)
+        return 0;
+    return (uint32_t)c[0] | (uint32_t)c[1] << 8 | (uint32_t)c[2] << 16 | (uint32_t)c[3] << 24;
 }
 
-static double get_f64(reader_t *r)
+static inline double get_f64(reader_t *r)
 {
     uint64_t v = get_u64(r);
     double x;

@@ -702,10 +702,24 @@ static void beam_rect(const oct_tree_t *tree, ray_beam_ws_t *bw, const ray_camer
                           decided, cnt);
 }
 
-/* The primary rays go to the packets by blocks of pixels, one packet each. */
+/* The rays go to the packets by blocks of pixels, one packet each. */
 #define PACKET_W 4
 #define PACKET_H 2
 _Static_assert(PACKET_W * PACKET_H == RAY_PACKET, "a block of pixels is a packet");
+
+/* The pixels [c0, c1) x [r0, r1) of a tile whose top left pixel is (c0, r0),
+ * block by block of PACKET_W x PACKET_H, as (row - r0) * TILE + (col - c0)
+ * into px; returns their count. */
+static int packet_order(int c0, int r0, int c1, int r1, int *px)
+{
+    int n = 0;
+    for (int br = r0; br < r1; br += PACKET_H)
+        for (int bc = c0; bc < c1; bc += PACKET_W)
+            for (int row = br; row < br + PACKET_H && row < r1; row++)
+                for (int col = bc; col < bc + PACKET_W && col < c1; col++)
+                    px[n++] = (row - r0) * TILE + (col - c0);
+    return n;
+}
 
 /* bw: the beams' workspace, NULL for no beams (tree is then not used); pw
  * the packets', with os the octree source, used with beams. */
@@ -733,18 +747,15 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
         beam_rect(tree, bw, cam, img, c0, r0, c0, r0, c1, r1, decided, cnt);
     ray_result_t res[TILE * TILE], *to[TILE * TILE];
     const double *dirs[TILE * TILE];
-    int nt = 0;
-    for (int br = r0; br < r1; br += PACKET_H)
-        for (int bc = c0; bc < c1; bc += PACKET_W)
-            for (int row = br; row < br + PACKET_H && row < r1; row++)
-                for (int col = bc; col < bc + PACKET_W && col < c1; col++) {
-                    int k = (row - r0) * TILE + (col - c0);
-                    res[k] = (ray_result_t){RAY_MISS, NAN, NAN, NAN, 0, 0};
-                    if (decided[k])
-                        continue;
-                    dirs[nt] = img->dir + 3 * ((size_t)row * W + col);
-                    to[nt++] = &res[k];
-                }
+    int px[TILE * TILE], npx = packet_order(c0, r0, c1, r1, px), nt = 0;
+    for (int j = 0; j < npx; j++) {
+        int k = px[j];
+        res[k] = (ray_result_t){RAY_MISS, NAN, NAN, NAN, 0, 0};
+        if (decided[k])
+            continue;
+        dirs[nt] = img->dir + 3 * ((size_t)(r0 + k / TILE) * W + (size_t)(c0 + k % TILE));
+        to[nt++] = &res[k];
+    }
     trace_rays(tape, ws, src, state, os, bw ? pw : NULL, opts, cam->eye, nt, dirs, INFINITY, 0,
                to, cnt);
 
@@ -874,16 +885,13 @@ static void render_tile(const tape_t *tape, tape_ws_t *ws, const ray_camera_t *c
             hit_at[(int)(hits[k] / (size_t)W - (size_t)r0) * TILE +
                    (int)(hits[k] % (size_t)W) - c0] = k;
         int nw = 0;
-        for (int br = r0; br < r1; br += PACKET_H)
-            for (int bc = c0; bc < c1; bc += PACKET_W)
-                for (int row = br; row < br + PACKET_H && row < r1; row++)
-                    for (int col = bc; col < bc + PACKET_W && col < c1; col++) {
-                        int k = hit_at[(row - r0) * TILE + (col - c0)];
-                        if (k < 0 || !placed[k] || sr[k].kind == RAY_HIT_ROOT)
-                            continue;
-                        dirs[nw] = ds[k];
-                        to[nw++] = &sr[k];
-                    }
+        for (int j = 0; j < npx; j++) {
+            int k = hit_at[px[j]];
+            if (k < 0 || !placed[k] || sr[k].kind == RAY_HIT_ROOT)
+                continue;
+            dirs[nw] = ds[k];
+            to[nw++] = &sr[k];
+        }
         trace_rays(tape, ws, src, state, os, bw ? pw : NULL, &shadow_opts, opts->light, nw, dirs,
                    1.0, 1, to, &sc);
         for (int k = 0; k < nh; k++) {

@@ -2,10 +2,11 @@
 # The writers of `ivoct build`: seconds per output, against the build's own time.
 #
 #   bash bench/writers.sh [--build DIR] [--base IVOCT] [--depth N] [--reps N]
-#                         [--surfaces "gumdrop ..."] [--threads N] [--quick]
+#                         [--surfaces "gumdrop ..."] [--outputs "cells vtu ..."]
+#                         [--threads N] [--quick]
 #   bash bench/writers.sh --same-values --base IVOCT [--build DIR]
 #
-# Each output (--cells, --save, --vtu, --htg, --vdb) is written by its own
+# Each output (--cells, --save, --vtu, --htg, --vdb; --outputs: only those) is written by its own
 # command, `ivoct build SCENE --depth N --stats F.json OUTPUT`; the writer's time
 # is the command's wall time less the build's time_s from the same run (what
 # is left: the writer, loading the scene, exiting), and net_write_s that less the
@@ -35,6 +36,7 @@ depth=9
 reps=3
 threads=""
 surfaces="gumdrop"
+outputs="cells save vtu htg vdb"
 same=0
 surfaces_given=0
 while [ $# -gt 0 ]; do
@@ -45,9 +47,10 @@ while [ $# -gt 0 ]; do
     --reps) reps=$2; shift ;;
     --threads) threads=$2; shift ;;
     --surfaces) surfaces=$2 surfaces_given=1; shift ;;
+    --outputs) outputs=$2; shift ;;
     --quick) depth=7 reps=1 ;;
     --same-values) same=1 ;;
-    -h | --help) sed -n '2,28p' "$0"; exit 0 ;;
+    -h | --help) sed -n '2,29p' "$0"; exit 0 ;;
     *) echo "bench/writers.sh: unknown option $1" >&2; exit 2 ;;
     esac
     shift
@@ -111,7 +114,7 @@ echo "binary,surface,output,bytes,build_s,write_s,net_write_s,mb_per_s,cpu_s,wri
 declare -A none_c=() none_w=()
 for s in $surfaces; do
     scene=$root/scenes/$s.ini
-    for o in none cells save vtu htg vdb; do
+    for o in none $outputs; do
         case $o in
         none) args=() file="" ;;
         cells) args=(--cells "$work/x.csv") file=$work/x.csv ;;

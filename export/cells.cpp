@@ -1,10 +1,9 @@
 // ivoct export/ — the cell list (`ivoct build --cells F.csv`): one row per
 // surface leaf in Morton order.  Includes neither VTK nor OpenVDB.
 //
-// Numbers go through std::to_chars with 17 significant digits in the general
-// format, which C++17 defines as printf's %.17g in the C locale: the text is
-// byte for byte what the printf writer gave, without printf's cost per value
-// (glibc's %.17g goes through multi-precision arithmetic: ~0.7 us a value).
+// Numbers are written by fmt_g17 (fmt/fmt.h): byte for byte printf's %.17g,
+// without its cost per value (ivoct_bench_fmt: glibc's snprintf ~0.2 us,
+// std::to_chars with precision 17 ~60-70 ns, fmt_g17 ~27-30 ns).
 // The bounds of the leaves are one of 2^D + 1 values per axis (oct_coord gives
 // the same double for the same fraction at any depth), formatted once each.
 //
@@ -21,6 +20,7 @@
 #include <mutex>
 #include <thread>
 
+#include "../fmt/fmt.h"
 #include "internal.hpp"
 
 namespace ivexp {
@@ -30,8 +30,9 @@ const char HEADER[] = "x0,x1,y0,y1,z0,z1,depth,f_lo,f_hi,nx,ny,nz,d_lo,d_hi,erro
 // appended when the tree has its certain leaves (oct_certify)
 const char HEADER_CERTAIN[] = ",certain,wx0,wy0,wz0,wx1,wy1,wz1";
 
-// %.17g of a double: at most 24 characters ("-1.2345678901234567e-308")
-constexpr size_t NUM_MAX = 32;
+// a number's room: fmt_g17 writes at most FMT_G17_MAX characters, and
+// scratch up to FMT_G17_ROOM
+constexpr size_t NUM_MAX = FMT_G17_ROOM;
 // 14 numbers, a depth of 2 digits, 14 commas and the newline
 constexpr size_t ROW_MAX = 14 * NUM_MAX + 2 + 15;
 // the certain columns: a flag, 6 numbers and 7 commas
@@ -41,15 +42,12 @@ inline size_t row_max(const oct_tree_t *t)
 {
     return t->certain ? ROW_MAX + ROW_CERTAIN : ROW_MAX;
 }
-// leaves per block: ~1 MB of text per write, 1.9 MB of buffer per slot
+// leaves per block: ~1 MB of text per write, 2.4 MB of buffer per slot
 constexpr size_t BLOCK = 4096;
 // tables of the bounds up to this depth (3 x 2^16 numbers: ~10 ms)
 constexpr int TABLE_DEPTH = 16;
 
-inline char *put_double(char *p, double x)
-{
-    return std::to_chars(p, p + NUM_MAX, x, std::chars_format::general, 17).ptr;
-}
+inline char *put_double(char *p, double x) { return fmt_g17(p, x); }
 
 inline char *put_int(char *p, int v)
 {

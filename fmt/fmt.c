@@ -9,6 +9,7 @@
  * magnitudes are rare in the outputs that need speed: printf does them. */
 #include "fmt.h"
 
+#include <locale.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
@@ -109,6 +110,26 @@ static void put8(char *d, uint32_t n)
     memcpy(d + 6, DIGIT_PAIRS + 2 * (b % 100), 2);
 }
 
+/* printf's own %.17g, with the C locale's decimal point whatever the
+ * process's LC_NUMERIC (ivoct never sets one; a program linking libivoct may) */
+static char *by_printf(char *p, double x)
+{
+    char text[64];
+    const int len = snprintf(text, sizeof text, "%.17g", x);
+    const char *point = localeconv()->decimal_point;
+    const size_t np = point ? strlen(point) : 0;
+    char *q = p;
+    for (int i = 0; i < len; i++) {
+        if (np && strncmp(text + i, point, np) == 0 && strcmp(point, ".") != 0) {
+            *q++ = '.';
+            i += (int)np - 1;
+        } else {
+            *q++ = text[i];
+        }
+    }
+    return q;
+}
+
 char *fmt_g17(char *p, double x)
 {
     uint64_t bits;
@@ -122,12 +143,8 @@ char *fmt_g17(char *p, double x)
         *p++ = '0';
         return p;
     }
-    if (be == 0 || e2 < FAST_E2_MIN || e2 > FAST_E2_MAX) {
-        char text[32];
-        const int len = snprintf(text, sizeof text, "%.17g", x);
-        memcpy(p, text, (size_t)len);
-        return p + len;
-    }
+    if (be == 0 || e2 < FAST_E2_MIN || e2 > FAST_E2_MAX)
+        return by_printf(p, x);
     /* |x| = m 2^e exactly; k = floor(log10 |x|) is floor(e2 log10 2) or one more
        (78913 / 2^18: log10 2 to 1e-6, exact for |e2| < 1650) */
     const uint64_t m = frac | (uint64_t)1 << 52;

@@ -24,7 +24,8 @@ extern "C" {
  * x), without a terminating NUL; return the end.  p must have room for
  * FMT_G17_ROOM characters.  By a 64 x 128-bit integer product where
  * 2^-73 <= |x| < 2^53 (about 1e-22 to 9e15); zero directly; every other x
- * (subnormal, smaller, larger, infinite, NaN) through snprintf itself. */
+ * (subnormal, smaller, larger, infinite, NaN) through snprintf itself, its
+ * decimal point made '.' whatever LC_NUMERIC says. */
 char *fmt_g17(char *p, double x);
 
 #ifdef __cplusplus

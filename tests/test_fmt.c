@@ -8,15 +8,21 @@
  * estimate (powers of ten and their neighbours, where the 17 digits round up
  * to the next power), the rounding (exact ties, m 2^-j with 18 digits ending
  * in 5), the layouts (%g's switch between fixed and exponential notation at
- * 1e-5 and 1e17, trailing zeros), and the edges of the range (2^-73, 2^53). */
+ * 1e-5 and 1e17, trailing zeros), and the edges of the range (2^-73, 2^53).
+ * And printf's fallback keeps '.' as the decimal point under a locale with a
+ * decimal comma (de_DE, built here by localedef from Debian's locales). */
+#define _POSIX_C_SOURCE 200809L /* mkdtemp, setenv */
 #include <float.h>
+#include <locale.h>
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include <cmocka.h>
 
@@ -160,12 +166,51 @@ static void test_ties(void **state_)
     assert_true(ties > 1000);
 }
 
+/* Under LC_NUMERIC de_DE printf writes a decimal comma; fmt_g17 must not, on
+ * its own path or on printf's (the values outside its exact range). */
+static void test_decimal_comma_locale(void **state_)
+{
+    (void)state_;
+    const double values[] = {0.5, -1.25e-3, 1e300, 5e-324, 1.0 / 3.0, 123456.789e20, 1e-30};
+    const size_t n = sizeof values / sizeof *values;
+    char want[sizeof values / sizeof *values][64];
+    for (size_t i = 0; i < n; i++)
+        snprintf(want[i], sizeof want[i], "%.17g", values[i]); /* the C locale's */
+
+    char dir[] = "/tmp/ivoct-test-fmt-XXXXXX", cmd[256], path[128];
+    assert_non_null(mkdtemp(dir));
+    /* localedef warns (exit 1) about the charmap and still writes the locale */
+    snprintf(cmd, sizeof cmd, "localedef -c -i de_DE -f UTF-8 %s/de_DE.UTF-8 >/dev/null 2>&1", dir);
+    (void)system(cmd);
+    snprintf(path, sizeof path, "%s/de_DE.UTF-8/LC_NUMERIC", dir);
+    struct stat st;
+    if (stat(path, &st) != 0)
+        fail_msg("localedef made no de_DE locale in %s (is Debian's locales installed?)", dir);
+    setenv("LOCPATH", dir, 1);
+    assert_non_null(setlocale(LC_NUMERIC, "de_DE.UTF-8"));
+    char probe[64];
+    snprintf(probe, sizeof probe, "%.17g", 0.5);
+    const int comma = strcmp(probe, "0,5") == 0;
+    for (size_t i = 0; i < n; i++) {
+        char got[FMT_G17_ROOM];
+        char *end = fmt_g17(got, values[i]);
+        if ((size_t)(end - got) != strlen(want[i]) || memcmp(got, want[i], strlen(want[i])))
+            fail_msg("under de_DE, %a: fmt_g17 \"%.*s\", expected \"%s\"", values[i],
+                     (int)(end - got), got, want[i]);
+    }
+    setlocale(LC_NUMERIC, "C");
+    unsetenv("LOCPATH");
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    (void)system(cmd);
+    assert_true(comma); /* printf itself wrote the comma: the locale was in force */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_bit_patterns), cmocka_unit_test(test_floats),
         cmocka_unit_test(test_magnitudes),   cmocka_unit_test(test_powers_of_ten),
-        cmocka_unit_test(test_ties),
+        cmocka_unit_test(test_ties),         cmocka_unit_test(test_decimal_comma_locale),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

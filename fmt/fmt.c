@@ -117,10 +117,10 @@ static char *by_printf(char *p, double x)
     char text[64];
     const int len = snprintf(text, sizeof text, "%.17g", x);
     const char *point = localeconv()->decimal_point;
-    const size_t np = point ? strlen(point) : 0;
+    const size_t np = point && strcmp(point, ".") != 0 ? strlen(point) : 0; /* 0: nothing to do */
     char *q = p;
     for (int i = 0; i < len; i++) {
-        if (np && strncmp(text + i, point, np) == 0 && strcmp(point, ".") != 0) {
+        if (np && strncmp(text + i, point, np) == 0) {
             *q++ = '.';
             i += (int)np - 1;
         } else {

@@ -5,7 +5,9 @@
 #   bash bench/ab.sh [--build DIR] [--base BIN] [--env "VAR=VALUE ..."]
 #                    [--reps N] [--pause S] -- IVOCT-ARGUMENTS...
 #
-# A: --base BIN (an earlier ivoct) when given, else this build's ivoct.
+# A: --base BIN (an earlier ivoct) when given, with the VTK and OpenVDB modules of
+#    its own build (BIN/../lib/ivoct/, where they are: a binary run from outside
+#    its build tree would otherwise open this build's), else this build's ivoct.
 # B: this build's ivoct, under the --env assignments when given (an allocator's
 #    settings, LD_PRELOAD, IVOCT_OPENVDB_MODULE ...).
 # Each runs --reps times (default 6), in a scratch directory emptied after every
@@ -33,7 +35,7 @@ while [ $# -gt 0 ]; do
     --reps) reps=$2; shift ;;
     --pause) pause=$2; shift ;;
     --) shift; break ;;
-    -h | --help) sed -n '2,20p' "$0"; exit 0 ;;
+    -h | --help) sed -n '2,21p' "$0"; exit 0 ;;
     *) echo "bench/ab.sh: unknown option $1 (the command goes after --)" >&2; exit 2 ;;
     esac
     shift
@@ -41,6 +43,12 @@ done
 [ $# -gt 0 ] || { echo "bench/ab.sh: no command (give it after --)" >&2; exit 2; }
 new=$(realpath "${IVOCT_BIN:-$build/cli/ivoct}")
 a_bin=${base:-$new}
+a_env=()
+if [ -n "$base" ]; then
+    lib=$(dirname "$base")/../lib/ivoct
+    [ -e "$lib/libivoct_vtk.so" ] && a_env+=("IVOCT_VTK_MODULE=$(realpath "$lib/libivoct_vtk.so")")
+    [ -e "$lib/libivoct_openvdb.so" ] && a_env+=("IVOCT_OPENVDB_MODULE=$(realpath "$lib/libivoct_openvdb.so")")
+fi
 [ -x /usr/bin/time ] || { echo "bench/ab.sh: needs GNU time (/usr/bin/time)" >&2; exit 2; }
 work=$(mktemp -d /tmp/ivoct-ab.XXXXXX)
 trap 'rm -rf "$work"' EXIT
@@ -54,7 +62,7 @@ for ((i = 0; i < reps; i++)); do
     for side in A B; do
         sleep "$pause"
         if [ $side = A ]; then
-            (cd "$work/" && /usr/bin/time -f "A %e %U %S %M" -a -o "$work.times" \
+            (cd "$work/" && env "${a_env[@]}" /usr/bin/time -f "A %e %U %S %M" -a -o "$work.times" \
                 "$a_bin" "${args[@]}" >/dev/null)
         else
             # shellcheck disable=SC2086  # the assignments split on spaces

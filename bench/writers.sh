@@ -13,11 +13,14 @@
 # same for the command without output (MB/s from it).  The minimum over --reps
 # runs (default 3) is kept: the machine may be shared.  --base IVOCT: another
 # binary (e.g. the main branch's) measured the same way, interleaved run by run
-# in alternating order, so both see the same load.  Also the command's CPU time
+# in alternating order, so both see the same load; it opens the VTK and OpenVDB
+# modules of its own build (IVOCT/../lib/ivoct/, where they are: a binary run from
+# outside its build tree would otherwise open this build's).  Also the command's CPU time
 # (user + sys, min over the runs) and the writer's share of it, cpu_s less that
 # of the same command without output: with --threads 1 the least load-dependent
-# number.  Writes bench/results/writers.csv (binary, surface, output, bytes,
-# build_s, write_s, net_write_s, mb_per_s, cpu_s, write_cpu_s) and prints it as a
+# number; and its peak resident size.  Writes bench/results/writers.csv (binary,
+# surface, output, bytes, build_s, write_s, net_write_s, mb_per_s, cpu_s,
+# write_cpu_s, peak_mb) and prints it as a
 # table, with `uptime` before and after.  Default: gumdrop at depth 9; --quick:
 # depth 7, 1 run.
 #
@@ -50,12 +53,25 @@ while [ $# -gt 0 ]; do
     --outputs) outputs=$2; shift ;;
     --quick) depth=7 reps=1 ;;
     --same-values) same=1 ;;
-    -h | --help) sed -n '2,29p' "$0"; exit 0 ;;
+    -h | --help) sed -n '2,31p' "$0"; exit 0 ;;
     *) echo "bench/writers.sh: unknown option $1" >&2; exit 2 ;;
     esac
     shift
 done
 new=${IVOCT_BIN:-$build/cli/ivoct}
+# side_cmd a|b: into cmd, this build's ivoct (a), or the base (b) with its own modules
+side_cmd() {
+    if [ "$1" = a ]; then
+        cmd=("$new")
+        return
+    fi
+    local lib
+    lib=$(dirname "$base")/../lib/ivoct
+    cmd=(env)
+    [ -e "$lib/libivoct_vtk.so" ] && cmd+=("IVOCT_VTK_MODULE=$lib/libivoct_vtk.so")
+    [ -e "$lib/libivoct_openvdb.so" ] && cmd+=("IVOCT_OPENVDB_MODULE=$lib/libivoct_openvdb.so")
+    cmd+=("$base")
+}
 mkdir -p "$root/bench/results"
 out=$root/bench/results/writers.csv
 work=$(mktemp -d /tmp/ivoct-writers.XXXXXX)
@@ -77,11 +93,10 @@ if [ "$same" = 1 ]; then
             opts=()
             [ $v = slabs ] && opts=(--tests interval,lipschitz,ilie --refine 0.01)
             for side in a b; do
-                bin=$new
-                [ $side = b ] && bin=$base
-                "$bin" build "$scene" --depth 6 --quiet "${opts[@]}" --save "$work/$side.ivo" \
+                side_cmd $side
+                "${cmd[@]}" build "$scene" --depth 6 --quiet "${opts[@]}" --save "$work/$side.ivo" \
                     --cells "$work/$side.csv" --vtu "$work/$side.vtu" --htg "$work/$side.htg"
-                "$bin" build "$scene" --depth 6 --quiet "${opts[@]}" --vdb "$work/$side.vdb" \
+                "${cmd[@]}" build "$scene" --depth 6 --quiet "${opts[@]}" --vdb "$work/$side.vdb" \
                     2>/dev/null || rm -f "$work/$side.vdb"
             done
             differ() { echo "differ: $name ($v) .$1"; bad=$((bad + 1)); }
@@ -110,7 +125,7 @@ thr=()
 [ -n "$threads" ] && thr=(--threads "$threads")
 
 echo "load before: $(uptime)"
-echo "binary,surface,output,bytes,build_s,write_s,net_write_s,mb_per_s,cpu_s,write_cpu_s" > "$out"
+echo "binary,surface,output,bytes,build_s,write_s,net_write_s,mb_per_s,cpu_s,write_cpu_s,peak_mb" > "$out"
 declare -A none_c=() none_w=()
 for s in $surfaces; do
     scene=$root/scenes/$s.ini
@@ -123,20 +138,23 @@ for s in $surfaces; do
         htg) args=(--htg "$work/x.htg") file=$work/x.htg ;;
         vdb) args=(--vdb "$work/x.vdb") file=$work/x.vdb ;;
         esac
-        declare -A best_w=() best_b=() best_c=() size=()
+        declare -A best_w=() best_b=() best_c=() size=() peak=()
         for r in $(seq "$reps"); do
             # the order alternates: on a virtual machine the second of two runs
             # back to back gets the pages the first gave back, faster than fresh ones
             order=("${bins[@]}")
             [ $((r % 2)) = 0 ] && [ ${#bins[@]} = 2 ] && order=("${bins[1]}" "${bins[0]}")
             for b in "${order[@]}"; do
-                bin=$new
-                [ "$b" = base ] && bin=$base
+                if [ "$b" = base ]; then side_cmd b; else side_cmd a; fi
                 t0=$(date +%s.%N)
-                /usr/bin/time -f "%U %S" -o "$work/cpu" "$bin" build "$scene" --depth "$depth" \
+                /usr/bin/time -f "%U %S %M" -o "$work/cpu" "${cmd[@]}" build "$scene" --depth "$depth" \
                     --quiet "${thr[@]}" --stats "$work/s.json" "${args[@]}"
                 t1=$(date +%s.%N)
                 c=$(awk '{print $1 + $2}' "$work/cpu")
+                m=$(awk '{printf "%.0f", $3 / 1024}' "$work/cpu")
+                if [ -z "${peak[$b]:-}" ] || [ "$m" -gt "${peak[$b]}" ]; then
+                    peak[$b]=$m
+                fi
                 if [ -z "${best_c[$b]:-}" ] || /usr/bin/python3 -c "import sys; sys.exit(not $c < ${best_c[$b]})"; then
                     best_c[$b]=$c
                 fi
@@ -159,10 +177,10 @@ for s in $surfaces; do
             mbs=$(/usr/bin/python3 -c "w=$net; print('%.0f' % (${size[$b]} / 1e6 / w) if w > 0 and ${size[$b]} else '')")
             [ $o = none ] && none_c[$b]=${best_c[$b]} none_w[$b]=${best_w[$b]}
             wc=$(/usr/bin/python3 -c "print('%.3f' % max(0.0, ${best_c[$b]} - ${none_c[$b]}))")
-            printf '%s,%s,%s,%s,%.3f,%.3f,%s,%s,%.3f,%s\n' "$b" "$s" "$o" "${size[$b]}" \
-                "${best_b[$b]}" "${best_w[$b]}" "$net" "$mbs" "${best_c[$b]}" "$wc" >> "$out"
+            printf '%s,%s,%s,%s,%.3f,%.3f,%s,%s,%.3f,%s,%s\n' "$b" "$s" "$o" "${size[$b]}" \
+                "${best_b[$b]}" "${best_w[$b]}" "$net" "$mbs" "${best_c[$b]}" "$wc" "${peak[$b]}" >> "$out"
         done
-        unset best_w best_b best_c size
+        unset best_w best_b best_c size peak
     done
 done
 echo "load after:  $(uptime)"

@@ -1,4 +1,4 @@
-#define _POSIX_C_SOURCE 200809L
+#define _XOPEN_SOURCE 700 /* POSIX 2008 with XSI: realpath */
 #include "io.h"
 
 #include <errno.h>
@@ -94,9 +94,34 @@ static int open_tmp(io_file_t *out, const char *path, const char *ext, ivoct_err
         return -1;
     }
     memcpy(out->path, path, n + 1);
+    /* a symbolic link is followed: the file it names is replaced, the link
+     * stays (renamed over, the link would become the file; /dev/stdout,
+     * when stdout is a file, would be replaced) */
+    struct stat st;
+    if (lstat(path, &st) == 0 && S_ISLNK(st.st_mode)) {
+        char *target = realpath(path, NULL);
+        if (target) {
+            size_t m = strlen(target);
+            char *p = realloc(out->path, m + 1), *t = p ? realloc(out->tmp, m + extra) : NULL;
+            if (p)
+                out->path = p;
+            if (t)
+                out->tmp = t;
+            if (!p || !t) {
+                free(target);
+                free(e);
+                free_file(out);
+                ivoct_error_set(err, "cannot write %s: out of memory", path);
+                return -1;
+            }
+            memcpy(out->path, target, m + 1);
+            free(target);
+            path = out->path;
+            n = m;
+        }
+    }
     /* a device or a pipe (/dev/stdout, /dev/full) is written in place: it
      * cannot be renamed over, and it holds no file to leave half-written */
-    struct stat st;
     if (stat(path, &st) == 0 && !S_ISREG(st.st_mode)) {
         free(e);
         free(out->tmp);

@@ -224,6 +224,25 @@ done
 no_files "missing folder" "$TMP/no-such-dir"
 no_temporaries "unwritable outputs"
 
+# ---- a symbolic link is followed: the file it names is replaced, the link stays --------------
+# (renamed over, the link itself became the file: /dev/stdout, when stdout is a file)
+for ext in csv vtu; do
+    opt=--cells
+    [ $ext = vtu ] && opt=--vtu
+    run 0 "$opt plain" -- build "$SCENES/sphere.ini" --depth 4 --quiet "$opt" "$TMP/plain.$ext"
+    echo old >"$TMP/target.$ext"
+    ln -s "target.$ext" "$TMP/link.$ext"
+    run 0 "$opt to a symbolic link" -- build "$SCENES/sphere.ini" --depth 4 --quiet "$opt" "$TMP/link.$ext"
+    [ -L "$TMP/link.$ext" ] && ok || fail "$opt to a symbolic link: the link was replaced"
+    cmp -s "$TMP/plain.$ext" "$TMP/target.$ext" && ok || fail "$opt to a symbolic link: its file differs"
+done
+# a link to the standard output, which is a file ($TMP/out): as /dev/stdout is
+ln -s /proc/self/fd/1 "$TMP/stdout"
+run 0 "--cells to a link to stdout" -- build "$SCENES/sphere.ini" --depth 4 --quiet --cells "$TMP/stdout"
+[ -L "$TMP/stdout" ] && ok || fail "--cells to a link to stdout: the link was replaced"
+cmp -s "$TMP/plain.csv" "$TMP/out" && ok || fail "--cells to a link to stdout: stdout's file differs"
+no_temporaries "symbolic links"
+
 # ---- the same tree for any thread count ----------------------------------------------------
 for s in sphere csg-64-spheres thin-shell horned-cube; do
     run 0 "$s threads 1" -- build "$SCENES/$s.ini" --depth 6 --threads 1 --quiet --save "$TMP/t1.ivo" &&

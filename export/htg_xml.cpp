@@ -156,7 +156,7 @@ public:
     // vtkXMLWriter::WriteArrayInline.  NumberOfTuples is written when tuples is
     // not 0 (VTK's writers pass the count as a flag); ranges for data arrays.
     void array(int indent, const char *type, const std::string &name, size_t tuples,
-               const Lz4Blocks &z, const Range *range)
+               Lz4Blocks &&z, const Range *range)
     {
         const std::string pad((size_t)indent, ' ');
         const char *tag = range ? "DataArray" : "Array";
@@ -171,12 +171,25 @@ public:
         text_ += "\n" + pad + "</" + tag + ">\n";
         if (text_.size() > FLUSH)
             flush();
+        spools_ = std::move(z.spools);
     }
     // The same for `bytes` bytes held at data.
     void array(int indent, const char *type, const std::string &name, size_t tuples,
                const void *data, size_t bytes, const Range *range)
     {
-        array(indent, type, name, tuples, lz4_blocks(data, bytes, threads_, out_.path()), range);
+        const unsigned char *p = static_cast<const unsigned char *>(data);
+        array(indent, type, name, tuples,
+              compress(bytes, [p](size_t at, size_t, unsigned char *, int) -> const void * {
+                  return p + at;
+              }),
+              range);
+    }
+
+    // The n bytes that bytes() gives, compressed (lz4_blocks) into the memory of
+    // the arrays before.
+    Lz4Blocks compress(size_t n, const BlockBytes &bytes)
+    {
+        return lz4_blocks(n, threads_, bytes, out_.path(), std::move(spools_));
     }
 
     void commit()
@@ -238,6 +251,7 @@ private:
     int threads_;
     std::string text_;
     HugeArray<unsigned char> window_;
+    std::vector<Lz4Spool> spools_;  // the last array's, for the next
 };
 
 // ---- the trees ----------------------------------------------------------------------
@@ -253,44 +267,59 @@ bool mark_surface(const oct_tree_t *tree, uint32_t i, HugeVector<uint8_t> &s)
     return has;
 }
 
-// The nodes below n in a vtkHyperTree's numbering of a tree built depth first
-// (a split node's children take the next 8 numbers when the walk reaches it).
-void creation_order(const oct_tree_t *tree, const HtgNode &n, HugeVector<HtgNode> &out)
-{
-    if (!is_split(tree, n))
-        return;
-    const size_t first = out.size();
-    const uint32_t child = OCT_NODE_VALUE(tree->nodes[n.node]);
-    for (unsigned c = 0; c < 8; c++)
-        out.push_back(child_of(n, child, c));
-    for (unsigned c = 0; c < 8; c++) {
-        const HtgNode ch = out[first + c];
-        creation_order(tree, ch, out);
-    }
-}
-
+// The trees' nodes in the output order, without a list of them: a tree is its
+// root, then the 8 children of each of its split nodes in turn, in the order
+// `split` lists those (breadth first for 2.0, whose arrays are breadth first; for
+// 0.0 the order of a depth-first walk, vtkHyperTree's numbering of a tree built
+// depth first: a split node's children take the next 8 numbers when the walk
+// reaches it).  So node i > 0 of a tree is child (i - 1) % 8 of its split node
+// (i - 1) / 8, and only the split nodes are held: an eighth of the nodes.
 struct Tree {
-    uint64_t index;               // in the grid (x fastest)
-    size_t first, count;          // its nodes in the output order
+    uint64_t index;                  // in the grid (x fastest)
+    HtgNode root;
+    size_t first, count;             // its nodes' positions in the output order
+    size_t first_split;              // its split nodes in Order::split
     std::vector<int64_t> per_depth;  // nodes at each depth of the tree
 };
 
-// The cell arrays, over the nodes in output order (not zeroed: every value is
-// written once).
-struct Cells {
-    explicit Cells(size_t n, bool with_certain)
-        : depth(huge_array<int32_t>(n)), f_center(huge_array<double>(n)),
-          f_lo(huge_array<double>(n)), f_hi(huge_array<double>(n)),
-          surface(huge_array<uint8_t>(n)), cls(huge_array<int8_t>(n)),
-          certain(with_certain ? huge_array<uint8_t>(n) : nullptr)
+struct Order {
+    std::vector<Tree> trees;
+    HugeVector<HtgNode> split;
+    size_t total = 0;
+
+    // The nodes at positions [s, e) into out.
+    void nodes(const oct_tree_t *tree, size_t s, size_t e, HtgNode *out) const
     {
+        size_t k = (size_t)(std::upper_bound(trees.begin(), trees.end(), s,
+                                             [](size_t p, const Tree &t) { return p < t.first; }) -
+                            trees.begin()) -
+                   1;
+        for (size_t p = s; p < e; p++) {
+            while (p >= trees[k].first + trees[k].count)
+                k++;
+            const Tree &t = trees[k];
+            const size_t i = p - t.first;
+            if (i == 0) {
+                *out++ = t.root;
+            } else {
+                const HtgNode &parent = split[t.first_split + (i - 1) / 8];
+                *out++ = child_of(parent, OCT_NODE_VALUE(tree->nodes[parent.node]),
+                                  (unsigned)((i - 1) & 7));
+            }
+        }
     }
-    HugeArray<int32_t> depth;
-    HugeArray<double> f_center, f_lo, f_hi;
-    HugeArray<uint8_t> surface;
-    HugeArray<int8_t> cls;
-    HugeArray<uint8_t> certain;
 };
+
+// The split nodes below n (n's own first) as a depth-first walk reaches them.
+void split_depth_first(const oct_tree_t *tree, const HtgNode &n, HugeVector<HtgNode> &out)
+{
+    if (!is_split(tree, n))
+        return;
+    out.push_back(n);
+    const uint32_t child = OCT_NODE_VALUE(tree->nodes[n.node]);
+    for (unsigned c = 0; c < 8; c++)
+        split_depth_first(tree, child_of(n, child, c), out);
+}
 
 // The bounds of the cells, from a table of depth T = min(D, 16) per axis
 // (oct_coord gives the same double for the same fraction at any depth); deeper
@@ -324,95 +353,156 @@ private:
     std::vector<double> table_[3];
 };
 
-Cells cell_values(const oct_tree_t *tree, const tape_t *tape, const HugeVector<HtgNode> &nodes,
-                  const HugeVector<uint8_t> &surface)
-{
-    const size_t total = nodes.size();
-    Cells v(total, tree->certain != nullptr);
-    const Coords coords(tree);
-    // f over every cell and at its centre (the leaves keep the build's range), and
-    // the other arrays, in chunks over threads (a box's result does not depend on
-    // its batch)
-    const size_t chunk = 4096;
-    const int threads = writer_threads(tree, (total + chunk - 1) / chunk);
-    std::vector<std::unique_ptr<Workspace>> ws;
-    for (int w = 0; w < threads; w++)
-        ws.push_back(std::make_unique<Workspace>(tape));
-    parallel_chunks(total, chunk, threads, [&](size_t s, size_t e, int w) {
-        const size_t m = e - s;
-        // the interval evaluation only where it is kept: not on the surface leaves
-        std::vector<iv_box_t> boxes(m);
-        std::vector<iv_t> fr(m);
-        std::vector<double> cx(m), cy(m), cz(m);
-        size_t q = 0;
-        for (size_t k = 0; k < m; k++) {
-            const iv_box_t b = coords.box(nodes[s + k]);
-            cx[k] = 0.5 * b.x.lo + 0.5 * b.x.hi;
-            cy[k] = 0.5 * b.y.lo + 0.5 * b.y.hi;
-            cz[k] = 0.5 * b.z.lo + 0.5 * b.z.hi;
-            if (OCT_NODE_KIND(tree->nodes[nodes[s + k].node]) != OCT_LEAF)
-                boxes[q++] = b;
+// The cell arrays, made a block at a time straight from the order and compressed
+// (never held whole: 30 bytes a node would be as many fresh pages): each block's
+// nodes found from their positions, f over the nodes that are not surface leaves
+// (those keep the build's range) and at every centre evaluated for the block.  A
+// box's result does not depend on its batch, and the ranges of the blocks are
+// merged in order (range_of's result), so the file is the same for any thread count.
+class CellArrays {
+public:
+    CellArrays(Writer &w, const oct_tree_t *tree, const tape_t *tape, const Order &order,
+               const HugeVector<uint8_t> &surface)
+        : w_(w), tree_(tree), tape_(tape), order_(order), surface_(surface), coords_(tree)
+    {
+        for (int k = 0; k < w.threads(); k++)
+            scratch_.push_back(std::make_unique<Scratch>(tape));
+    }
+
+    // The arrays of the nodes at [first, first + n) (vtkXMLWriter's order: as the
+    // cell data were added).
+    void write(int indent, size_t first, size_t n)
+    {
+        const oct_tree_t *tree = tree_;
+        // each array's values for a block's m nodes at v, into out
+        array<int32_t>(indent, "Int32", "depth", first, n,
+                       [](const HtgNode *v, size_t m, int32_t *out, Scratch &) {
+                           for (size_t k = 0; k < m; k++)
+                               out[k] = v[k].depth;
+                       });
+        array<double>(indent, "Float64", "f_center", first, n,
+                      [this](const HtgNode *v, size_t m, double *out, Scratch &s) {
+                          for (size_t k = 0; k < m; k++) {
+                              const iv_box_t b = coords_.box(v[k]);
+                              s.cx[k] = 0.5 * b.x.lo + 0.5 * b.x.hi;
+                              s.cy[k] = 0.5 * b.y.lo + 0.5 * b.y.hi;
+                              s.cz[k] = 0.5 * b.z.lo + 0.5 * b.z.hi;
+                          }
+                          tape_eval_point(tape_, s.ws.ws, m, s.cx.data(), s.cy.data(),
+                                          s.cz.data(), out);
+                      });
+        // f over the cells evaluated for each bound: once more costs less than
+        // the fresh pages that would keep the upper bounds from the first pass
+        array<double>(indent, "Float64", "f_lo", first, n,
+                      [this](const HtgNode *v, size_t m, double *out, Scratch &s) {
+                          f_range(v, m, s);
+                          for (size_t k = 0; k < m; k++)
+                              out[k] = s.f[k].lo;
+                      });
+        array<double>(indent, "Float64", "f_hi", first, n,
+                      [this](const HtgNode *v, size_t m, double *out, Scratch &s) {
+                          f_range(v, m, s);
+                          for (size_t k = 0; k < m; k++)
+                              out[k] = s.f[k].hi;
+                      });
+        array<uint8_t>(indent, "UInt8", "surface", first, n,
+                       [this](const HtgNode *v, size_t m, uint8_t *out, Scratch &) {
+                           for (size_t k = 0; k < m; k++)
+                               out[k] = surface_[v[k].node];
+                       });
+        array<int8_t>(indent, "Int8", "class", first, n,
+                      [tree](const HtgNode *v, size_t m, int8_t *out, Scratch &) {
+                          for (size_t k = 0; k < m; k++) {
+                              const oct_node_t node = tree->nodes[v[k].node];
+                              out[k] = OCT_NODE_KIND(node) == OCT_LEAF ? (int8_t)CLASS_SURFACE
+                                       : OCT_NODE_KIND(node) == OCT_INTERIOR
+                                           ? (int8_t)CLASS_SPLIT
+                                           : (int8_t)OCT_NODE_VALUE(node);
+                          }
+                      });
+        if (tree->certain)
+            array<uint8_t>(indent, "UInt8", "certain", first, n,
+                           [tree](const HtgNode *v, size_t m, uint8_t *out, Scratch &) {
+                               for (size_t k = 0; k < m; k++) {
+                                   const oct_node_t node = tree->nodes[v[k].node];
+                                   out[k] = OCT_NODE_KIND(node) == OCT_LEAF
+                                                ? (uint8_t)oct_leaf_certain(
+                                                      tree, OCT_NODE_VALUE(node))
+                                                : 0;
+                               }
+                           });
+    }
+
+private:
+    static constexpr size_t MOST = LZ4_BLOCK;          // nodes in a block (of bytes)
+    static constexpr size_t MOST_F = LZ4_BLOCK / 8;    // nodes in a block of doubles
+
+    struct Scratch {
+        explicit Scratch(const tape_t *tape)
+            : ws(tape), nodes(MOST), boxes(MOST_F), f(MOST_F), fr(MOST_F), cx(MOST_F),
+              cy(MOST_F), cz(MOST_F)
+        {
         }
-        tape_eval_interval(tape, ws[(size_t)w]->ws, q, boxes.data(), fr.data());
-        tape_eval_point(tape, ws[(size_t)w]->ws, m, cx.data(), cy.data(), cz.data(),
-                        v.f_center.get() + s);
+        Workspace ws;
+        std::vector<HtgNode> nodes;
+        std::vector<iv_box_t> boxes;
+        std::vector<iv_t> f, fr;
+        std::vector<double> cx, cy, cz;
+    };
+
+    // f over the m nodes at v into s.f: the leaves' from the build, the others'
+    // evaluated
+    void f_range(const HtgNode *v, size_t m, Scratch &s) const
+    {
+        size_t q = 0;
+        for (size_t k = 0; k < m; k++)
+            if (OCT_NODE_KIND(tree_->nodes[v[k].node]) != OCT_LEAF)
+                s.boxes[q++] = coords_.box(v[k]);
+        tape_eval_interval(tape_, s.ws.ws, q, s.boxes.data(), s.fr.data());
         q = 0;
         for (size_t k = 0; k < m; k++) {
-            const size_t i = s + k;
-            const oct_node_t node = tree->nodes[nodes[i].node];
-            double l = 0, h = 0;
-            if (OCT_NODE_KIND(node) != OCT_LEAF)
-                l = fr[q].lo, h = fr[q].hi, q++;
-            signed char c;
-            unsigned char sure = 0;
-            switch (OCT_NODE_KIND(node)) {
-            case OCT_LEAF: {
-                const oct_leaf_t &leaf = tree->leaves[OCT_NODE_VALUE(node)];
-                l = leaf.f_lo, h = leaf.f_hi;
-                c = CLASS_SURFACE;
-                sure = (unsigned char)oct_leaf_certain(tree, OCT_NODE_VALUE(node));
-                break;
+            const oct_node_t node = tree_->nodes[v[k].node];
+            if (OCT_NODE_KIND(node) == OCT_LEAF) {
+                const oct_leaf_t &leaf = tree_->leaves[OCT_NODE_VALUE(node)];
+                s.f[k] = {leaf.f_lo, leaf.f_hi};
+            } else {
+                s.f[k] = s.fr[q++];
             }
-            case OCT_INTERIOR:
-                c = CLASS_SPLIT;
-                break;
-            default:
-                c = (signed char)OCT_NODE_VALUE(node);
-                break;
-            }
-            v.depth[i] = nodes[i].depth;
-            v.f_lo[i] = l;
-            v.f_hi[i] = h;
-            v.surface[i] = surface[nodes[i].node];
-            v.cls[i] = c;
-            if (v.certain)
-                v.certain[i] = sure;
         }
-    });
-    return v;
-}
-
-// The cell arrays of nodes [first, first + n) (vtkXMLWriter's order: as the cell
-// data were added).
-void cell_arrays(Writer &w, int indent, const Cells &v, size_t first, size_t n)
-{
-    Range r = range_of(v.depth.get() + first, n);
-    w.array(indent, "Int32", "depth", n, v.depth.get() + first, 4 * n, &r);
-    r = range_of(v.f_center.get() + first, n);
-    w.array(indent, "Float64", "f_center", n, v.f_center.get() + first, 8 * n, &r);
-    r = range_of(v.f_lo.get() + first, n);
-    w.array(indent, "Float64", "f_lo", n, v.f_lo.get() + first, 8 * n, &r);
-    r = range_of(v.f_hi.get() + first, n);
-    w.array(indent, "Float64", "f_hi", n, v.f_hi.get() + first, 8 * n, &r);
-    r = range_of(v.surface.get() + first, n);
-    w.array(indent, "UInt8", "surface", n, v.surface.get() + first, n, &r);
-    r = range_of(v.cls.get() + first, n);
-    w.array(indent, "Int8", "class", n, v.cls.get() + first, n, &r);
-    if (v.certain) {
-        r = range_of(v.certain.get() + first, n);
-        w.array(indent, "UInt8", "certain", n, v.certain.get() + first, n, &r);
     }
-}
+
+    // One array of T over the nodes [first, first + n): values(nodes, m, out,
+    // scratch) for each block's m nodes.
+    template <class T, class F>
+    void array(int indent, const char *type, const char *name, size_t first, size_t n, F &&values)
+    {
+        constexpr size_t per = LZ4_BLOCK / sizeof(T);
+        std::vector<Range> ranges((n + per - 1) / per);
+        Lz4Blocks z = w_.compress(
+            n * sizeof(T),
+            [&](size_t at, size_t bytes, unsigned char *block, int worker) -> const void * {
+                Scratch &s = *scratch_[(size_t)worker];
+                const size_t i = at / sizeof(T), m = bytes / sizeof(T);
+                order_.nodes(tree_, first + i, first + i + m, s.nodes.data());
+                T *out = reinterpret_cast<T *>(block);  // new[]'s: aligned for any T
+                values(s.nodes.data(), m, out, s);
+                ranges[i / per] = range_of(out, m);
+                return out;
+            });
+        Range r;
+        for (const Range &b : ranges)
+            r.add(b);
+        w_.array(indent, type, name, n, std::move(z), &r);
+    }
+
+    Writer &w_;
+    const oct_tree_t *tree_;
+    const tape_t *tape_;
+    const Order &order_;
+    const HugeVector<uint8_t> &surface_;
+    const Coords coords_;
+    std::vector<std::unique_ptr<Scratch>> scratch_;
+};
 
 // The HyperTreeGrid of the subtrees of `tree` below `roots`, cells of depth g:
 // a grid of 2^g x 2^g x 2^g trees (their bounds oct_coord at depth g), a tree at
@@ -435,53 +525,52 @@ void write_htg_trees(const oct_tree_t *tree, const tape_t *tape, const oct_sourc
     for (const HtgNode &r : roots)
         mark_surface(tree, r.node, surface);
 
-    // each tree breadth first: its depths, its descriptor; the output order
-    HugeVector<HtgNode> nodes, bfs;
-    nodes.reserve(tree->n_nodes);
-    std::vector<Tree> trees;
+    // each tree breadth first (its split nodes are the queue): its depths, its
+    // descriptor; the output order
+    Order order;
+    HugeVector<HtgNode> bfs;
     Bits desc;                    // 2.0: all trees, every depth but the last
     std::vector<Bits> tree_desc;  // 0.0: per tree, every depth
     for (const HtgNode &r : roots) {
-        Tree t{tree_index(r), nodes.size(), 0, {}};
+        Tree t{tree_index(r), r, order.total, 0, order.split.size(), {1}};
         if (piece) {
             bfs.clear();
             tree_desc.emplace_back();
         }
-        HugeVector<HtgNode> &level = piece ? bfs : nodes;
+        HugeVector<HtgNode> &queue = piece ? bfs : order.split;
         Bits &d = piece ? tree_desc.back() : desc;
-        const size_t start = level.size();
-        level.push_back(r);
-        size_t a = start;
-        while (a < level.size()) {
-            const size_t b = level.size();
-            t.per_depth.push_back((int64_t)(b - a));
-            for (size_t i = a; i < b; i++) {
-                const oct_node_t w = tree->nodes[level[i].node];
-                d.push(OCT_NODE_KIND(w) == OCT_INTERIOR);
-                if (OCT_NODE_KIND(w) == OCT_INTERIOR) {
-                    const HtgNode parent = level[i];
-                    for (unsigned c = 0; c < 8; c++)
-                        level.push_back(child_of(parent, OCT_NODE_VALUE(w), c));
-                }
+        const size_t start = queue.size();
+        d.push(is_split(tree, r));
+        if (is_split(tree, r))
+            queue.push_back(r);
+        for (size_t i = start; i < queue.size(); i++) {
+            const HtgNode parent = queue[i];
+            const size_t below = (size_t)(parent.depth - r.depth) + 1;
+            if (t.per_depth.size() == below)
+                t.per_depth.push_back(0);
+            t.per_depth[below] += 8;
+            const uint32_t first = OCT_NODE_VALUE(tree->nodes[parent.node]);
+            for (unsigned c = 0; c < 8; c++) {
+                const HtgNode ch = child_of(parent, first, c);
+                d.push(is_split(tree, ch));
+                if (is_split(tree, ch))
+                    queue.push_back(ch);
             }
-            a = b;
         }
-        t.count = level.size() - start;
-        if (piece) {
-            nodes.push_back(r);
-            creation_order(tree, r, nodes);
-        } else {
+        t.count = 1 + 8 * (queue.size() - start);
+        if (piece)
+            split_depth_first(tree, r, order.split);
+        else
             d.drop((size_t)t.per_depth.back());  // the last depth's 0s are not written
-        }
-        trees.push_back(std::move(t));
+        order.total += t.count;
+        order.trees.push_back(std::move(t));
     }
     HugeVector<HtgNode>().swap(bfs);
-    const size_t total = nodes.size();
-    const Cells v = cell_values(tree, tape, nodes, surface);
-    HugeVector<HtgNode>().swap(nodes);
-    HugeVector<uint8_t>().swap(surface);
+    const size_t total = order.total;
+    const std::vector<Tree> &trees = order.trees;
 
     Writer w(path, writer_threads(tree, (size_t)-1));
+    CellArrays arrays(w, tree, tape, order, surface);
     std::string &t = w.text();
     t += "<?xml version=\"1.0\"?>\n<VTKFile type=\"HyperTreeGrid\" version=\"";
     t += piece ? "0.0" : "2.0";
@@ -516,7 +605,7 @@ void write_htg_trees(const oct_tree_t *tree, const tape_t *tape, const oct_sourc
             w.array(8, "Bit", "Descriptor", tree_desc[k].n, tree_desc[k].bytes.data(),
                     tree_desc[k].bytes.size(), &r);
             t += "        <CellData>\n";
-            cell_arrays(w, 10, v, tr.first, tr.count);
+            arrays.write(10, tr.first, tr.count);
             t += "        </CellData>\n      </Tree>\n";
             offset += (int64_t)tr.count;
         }
@@ -539,7 +628,7 @@ void write_htg_trees(const oct_tree_t *tree, const tape_t *tape, const oct_sourc
         r = range_of(depths.data(), depths.size());
         w.array(8, "UInt32", "DepthPerTree", depths.size(), depths.data(), 4 * depths.size(), &r);
         t += "    </Trees>\n    <CellData>\n";
-        cell_arrays(w, 8, v, 0, total);
+        arrays.write(8, 0, total);
         t += "    </CellData>\n";
     }
     // field data: the source's strings (each with its terminating 0), box, depth

@@ -106,6 +106,12 @@ public:
     FILE *file() { return f_.f; }
     const char *path() const { return path_.c_str(); }
     void write(const void *data, size_t n);
+    // A temporary file, which write_at may rewrite (not a device or a pipe,
+    // written in place).
+    bool seekable() const { return f_.tmp != nullptr; }
+    // data[0, n) over the bytes at offset written already; later writes go on
+    // at the end.
+    void write_at(uint64_t offset, const void *data, size_t n);
     void commit();  // throws Error naming the path and the reason
 private:
     io_file_t f_;
@@ -238,13 +244,23 @@ constexpr const char *VTK_BYTE_ORDER = "BigEndian";
 #error "the VTK XML writers need the host's byte order (__BYTE_ORDER__)"
 #endif
 
+// A thread's compressed blocks, end to end, in the order it made them; grown by
+// mem_huge_realloc (a large block moves its pages, no copy).
+struct Lz4Spool {
+    HugeArray<char> data;
+    size_t size = 0, cap = 0;
+    // p[0, n) appended, at least `first` bytes of room taken when there is none;
+    // returns where they start
+    size_t append(const char *p, size_t n, size_t first);
+};
+
 // An array's compressed data: the header, and the blocks where the threads that
 // compressed them left them (each thread's blocks end to end in its own spool),
 // never copied together: each() gives them in order.
 struct Lz4Blocks {
     std::vector<uint64_t> header;  // the compressed-data header (host order)
     size_t size = 0;               // the blocks' bytes
-    std::vector<HugeArray<char>> spools;
+    std::vector<Lz4Spool> spools;
     std::vector<std::pair<int, size_t>> where;  // a block's spool and offset in it
     size_t header_bytes() const { return header.size() * sizeof(uint64_t); }
     size_t bytes() const { return header_bytes() + size; }
@@ -252,7 +268,7 @@ struct Lz4Blocks {
     template <class F> void each(F &&f) const
     {
         for (size_t b = 0; b < where.size(); b++)
-            f(spools[(size_t)where[b].first].get() + where[b].second, (size_t)header[3 + b]);
+            f(spools[(size_t)where[b].first].data.get() + where[b].second, (size_t)header[3 + b]);
     }
 };
 
@@ -264,8 +280,11 @@ using BlockBytes =
     std::function<const void *(size_t at, size_t n, unsigned char *scratch, int worker)>;
 
 // The n bytes that bytes() gives, compressed by `threads` threads (one below
-// 8 blocks).  path: for the error message.
-Lz4Blocks lz4_blocks(size_t n, int threads, const BlockBytes &bytes, const char *path);
+// 8 blocks).  path: for the error message.  reuse: the spools of an array
+// written already, whose memory the blocks then fill (pages mapped once for a
+// writer's arrays, not once for each).
+Lz4Blocks lz4_blocks(size_t n, int threads, const BlockBytes &bytes, const char *path,
+                     std::vector<Lz4Spool> reuse = {});
 // The same for n bytes held at data.
 Lz4Blocks lz4_blocks(const void *data, size_t n, int threads, const char *path);
 

@@ -16,32 +16,24 @@ constexpr int LZ4_ACCELERATION = 5;   // vtkLZ4DataCompressor at the writer's le
 constexpr size_t PARALLEL_BLOCKS = 8; // fewer blocks than this: one thread
 }  // namespace
 
-namespace {
-// A thread's compressed blocks, end to end, in the order it made them; grown
-// by mem_huge_realloc (a large block moves its pages, no copy).
-struct Spool {
-    HugeArray<char> data;
-    size_t size = 0, cap = 0;
-    size_t first = 0;  // the capacity to start with
-    size_t append(const char *p, size_t n)
-    {
-        if (size + n > cap) {
-            size_t cap2 = std::max(std::max(2 * cap, first), size + n);
-            char *q = static_cast<char *>(mem_huge_realloc(data.get(), cap2));
-            if (!q)
-                throw std::bad_alloc();
-            data.release();
-            data.reset(q);
-            cap = cap2;
-        }
-        std::memcpy(data.get() + size, p, n);
-        size += n;
-        return size - n;
+size_t Lz4Spool::append(const char *p, size_t n, size_t first)
+{
+    if (size + n > cap) {
+        const size_t cap2 = std::max(std::max(2 * cap, first), size + n);
+        char *q = static_cast<char *>(mem_huge_realloc(data.get(), cap2));
+        if (!q)
+            throw std::bad_alloc();
+        data.release();
+        data.reset(q);
+        cap = cap2;
     }
-};
-}  // namespace
+    std::memcpy(data.get() + size, p, n);
+    size += n;
+    return size - n;
+}
 
-Lz4Blocks lz4_blocks(size_t n, int threads, const BlockBytes &bytes, const char *path)
+Lz4Blocks lz4_blocks(size_t n, int threads, const BlockBytes &bytes, const char *path,
+                     std::vector<Lz4Spool> reuse)
 {
     const size_t nblocks = n / LZ4_BLOCK + (n % LZ4_BLOCK ? 1 : 0);
     const size_t bound = (size_t)LZ4_COMPRESSBOUND((int)LZ4_BLOCK);
@@ -62,11 +54,14 @@ Lz4Blocks lz4_blocks(size_t n, int threads, const BlockBytes &bytes, const char 
         scratch[(size_t)t].reset(new unsigned char[LZ4_BLOCK]);
         packed[(size_t)t].reset(new char[bound]);
     }
-    // a spool starts at half its share of the input's bound: large arrays' spools
-    // are on huge pages from the start, and only the pages touched are mapped
-    std::vector<Spool> spools((size_t)threads);
-    for (Spool &s : spools)
-        s.first = nblocks * bound / (size_t)threads / 2 + 1;
+    // a new spool starts at half its share of the input's bound: large arrays'
+    // spools are on huge pages from the start, and only the pages touched are mapped
+    z.spools = std::move(reuse);
+    if (z.spools.size() < (size_t)threads)
+        z.spools.resize((size_t)threads);
+    for (Lz4Spool &s : z.spools)
+        s.size = 0;
+    const size_t first = nblocks * bound / (size_t)threads / 2 + 1;
     z.where.resize(nblocks);
     parallel_chunks(nblocks, 1, threads, [&](size_t b, size_t, int worker) {
         const size_t at = b * LZ4_BLOCK, size = std::min(LZ4_BLOCK, n - at);
@@ -77,12 +72,10 @@ Lz4Blocks lz4_blocks(size_t n, int threads, const BlockBytes &bytes, const char 
         if (cs <= 0)
             throw Error(std::string("cannot write ") + path + ": LZ4 failed");
         z.header[3 + b] = (uint64_t)cs;
-        z.where[b] = {worker, spools[(size_t)worker].append(out, (size_t)cs)};
+        z.where[b] = {worker, z.spools[(size_t)worker].append(out, (size_t)cs, first)};
     });
     for (size_t b = 0; b < nblocks; b++)
         z.size += z.header[3 + b];
-    for (Spool &s : spools)
-        z.spools.push_back(std::move(s.data));
     return z;
 }
 

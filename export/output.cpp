@@ -29,6 +29,17 @@ void Output::write(const void *data, size_t n)
         throw Error("cannot write " + path_ + ": " + std::strerror(errno ? errno : EIO));
 }
 
+void Output::write_at(uint64_t offset, const void *data, size_t n)
+{
+    if (!seekable())
+        throw Error("cannot write " + path_ + ": a device or a pipe cannot be rewritten");
+    if (fseeko(f_.f, (off_t)offset, SEEK_SET) != 0)
+        throw Error("cannot write " + path_ + ": " + std::strerror(errno ? errno : EIO));
+    write(data, n);
+    if (fseeko(f_.f, 0, SEEK_END) != 0)
+        throw Error("cannot write " + path_ + ": " + std::strerror(errno ? errno : EIO));
+}
+
 void Output::commit()
 {
     ivoct_error_t err;

@@ -19,7 +19,8 @@
 // What differs is only how: every array is compressed over threads, the
 // connectivity is held as 32-bit indices and widened to Int64 block by block,
 // the cell data, offsets and types are made block by block and never held
-// whole, and the file goes out in a few large writes.
+// whole, and each array's data go to the file as soon as they are made, the
+// XML written again over its first draft once the data gave their offsets.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -465,13 +466,16 @@ std::string reserved(const char *name, const std::string &value)
     return s;
 }
 
-// One array of the file: its element and its compressed data.
+// One array of the file: its element, and how its compressed data are made.
 struct Array {
     enum Ranges { NONE, EMPTY, FILLED };  // strings; the cells' arrays; data arrays
     std::string attributes;  // from type to format="appended"
     Ranges ranges;
     Range range;
-    Lz4Blocks data;
+    // the compressed data, made into the memory of `reuse` (the spools of the
+    // array before); sets range where the blocks give it
+    std::function<Lz4Blocks(Array &, std::vector<Lz4Spool> reuse)> make;
+    uint64_t offset = 0;  // of the data in the appended data, once made
 };
 
 std::string attributes(const char *type, const std::string &name, int components, size_t tuples)
@@ -484,6 +488,21 @@ std::string attributes(const char *type, const std::string &name, int components
     return a + " format=\"appended\"";
 }
 
+// An array of n bytes held at data (alive until it is made), on one thread.
+Array held_array(std::string attributes, Array::Ranges ranges, Range range, const void *data,
+                 size_t n, const char *path)
+{
+    return {std::move(attributes), ranges, range,
+            [data, n, path](Array &, std::vector<Lz4Spool> reuse) {
+                return lz4_blocks(
+                    n, 1,
+                    [data](size_t at, size_t, unsigned char *, int) -> const void * {
+                        return static_cast<const unsigned char *>(data) + at;
+                    },
+                    path, std::move(reuse));
+            }};
+}
+
 // An array of `count` values of T made and compressed block by block:
 // fill(first, k, out) writes values [first, first + k) to out.  With `ranges`
 // FILLED, its range (one component) gathered from the blocks'.
@@ -491,23 +510,28 @@ template <class T, class F>
 Array made_array(const char *type, const char *name, int components, size_t count,
                  Array::Ranges ranges, int threads, const char *path, F fill)
 {
-    const size_t nblocks = (count * sizeof(T) + LZ4_BLOCK - 1) / LZ4_BLOCK;
-    std::vector<Range> block_range(ranges == Array::FILLED ? nblocks : 0);
-    Array a{attributes(type, name, components, 0), ranges, {}, {}};
-    a.data = lz4_blocks(
-        count * sizeof(T), threads,
-        [&](size_t at, size_t bytes, unsigned char *scratch, int) -> const void * {
-            T *out = reinterpret_cast<T *>(scratch);
-            const size_t k = bytes / sizeof(T);
-            fill(at / sizeof(T), k, out);
-            if (!block_range.empty())
-                block_range[at / LZ4_BLOCK] = range_of(out, k);
-            return scratch;
-        },
-        path);
-    for (const Range &r : block_range)
-        a.range.add(r);
-    return a;
+    auto make = [count, ranges, threads, path, fill](Array &a, std::vector<Lz4Spool> reuse) {
+        const size_t nblocks = (count * sizeof(T) + LZ4_BLOCK - 1) / LZ4_BLOCK;
+        std::vector<Range> block_range(ranges == Array::FILLED ? nblocks : 0);
+        Lz4Blocks z = lz4_blocks(
+            count * sizeof(T), threads,
+            [&](size_t at, size_t bytes, unsigned char *scratch, int) -> const void * {
+                T *out = reinterpret_cast<T *>(scratch);
+                const size_t k = bytes / sizeof(T);
+                fill(at / sizeof(T), k, out);
+                if (!block_range.empty())
+                    block_range[at / LZ4_BLOCK] = range_of(out, k);
+                return scratch;
+            },
+            path, std::move(reuse));
+        if (ranges == Array::FILLED) {
+            a.range = Range();
+            for (const Range &r : block_range)
+                a.range.add(r);
+        }
+        return z;
+    };
+    return {attributes(type, name, components, 0), ranges, {}, make};
 }
 
 // The fill of made_array for value(i), the i-th value.
@@ -519,8 +543,8 @@ template <class T, class V> auto each(V value)
     };
 }
 
-// The element of one array, its data at `offset` in the appended data.
-void element(std::string &t, int indent, const Array &a, uint64_t offset)
+// The element of one array.
+void element(std::string &t, int indent, const Array &a)
 {
     t.append((size_t)indent, ' ');
     t += a.ranges == Array::NONE ? "<Array" : "<DataArray";
@@ -530,7 +554,7 @@ void element(std::string &t, int indent, const Array &a, uint64_t offset)
         t += reserved("RangeMin", filled ? num11(a.range.lo) : "");
         t += reserved("RangeMax", filled ? num11(a.range.hi) : "");
     }
-    t += reserved("offset", std::to_string(offset));
+    t += reserved("offset", std::to_string(a.offset));
     t += "/>\n";
 }
 
@@ -542,17 +566,17 @@ void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *
     const size_t n = tree->n_leaves;
     const int threads = writer_threads(tree, (size_t)-1);
     std::vector<Array> field, cell, cells;
-    Array points;
 
     // field data: the source's strings (each with its terminating 0), box, depth
-    for (const MetaItem &m : meta_strings(src))
-        field.push_back({attributes("String", m.key, 1, 1), Array::NONE, {},
-                         lz4_blocks(m.value.c_str(), m.value.size() + 1, 1, path)});
-    field.push_back({attributes("Float64", "box", 1, 6), Array::FILLED, range_of(tree->box, 6),
-                     lz4_blocks(tree->box, 6 * sizeof(double), 1, path)});
+    const std::vector<MetaItem> meta = meta_strings(src);
+    for (const MetaItem &m : meta)
+        field.push_back(held_array(attributes("String", m.key, 1, 1), Array::NONE, {},
+                                   m.value.c_str(), m.value.size() + 1, path));
+    field.push_back(held_array(attributes("Float64", "box", 1, 6), Array::FILLED,
+                               range_of(tree->box, 6), tree->box, 6 * sizeof(double), path));
     const int32_t depth = tree->depth;
-    field.push_back({attributes("Int32", "depth", 1, 1), Array::FILLED, range_of(&depth, 1),
-                     lz4_blocks(&depth, sizeof depth, 1, path)});
+    field.push_back(held_array(attributes("Int32", "depth", 1, 1), Array::FILLED,
+                               range_of(&depth, 1), &depth, sizeof depth, path));
 
     // cell data, in the order the VTK writer had them added
     const oct_leaf_t *leaves = tree->leaves;
@@ -594,69 +618,100 @@ void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *
     }
 
     // the points: the leaves' corners shared between neighbours, in (z, y, x) order
-    size_t n_points;
-    {
-        const SharedPoints sp(tree, threads);
-        n_points = sp.size();
-        points = made_array<double>("Float64", "Points", 3, 3 * n_points, Array::NONE, threads, path,
-                                    [&sp](size_t first, size_t k, double *out) {
-                                        sp.coords(first, k, out);
-                                    });
-        points.ranges = F;
-        points.range = sp.norm_range();
-        cells.push_back(made_array<int64_t>("Int64", "connectivity", 1, 8 * n, Array::EMPTY,
-                                            threads, path,
-                                            [&sp](size_t first, size_t k, int64_t *out) {
-                                                sp.connectivity(first, k, out);
-                                            }));
-    }
+    const SharedPoints sp(tree, threads);
+    Array points = made_array<double>("Float64", "Points", 3, 3 * sp.size(), Array::NONE, threads,
+                                      path, [&sp](size_t first, size_t k, double *out) {
+                                          sp.coords(first, k, out);
+                                      });
+    points.ranges = F;
+    points.range = sp.norm_range();
+    cells.push_back(made_array<int64_t>("Int64", "connectivity", 1, 8 * n, Array::EMPTY, threads,
+                                        path, [&sp](size_t first, size_t k, int64_t *out) {
+                                            sp.connectivity(first, k, out);
+                                        }));
     // offsets: where each cell's points end; types: all voxels
     cells.push_back(made_array<int64_t>("Int64", "offsets", 1, n, Array::EMPTY, threads, path,
                                         each<int64_t>([](size_t i) { return (int64_t)(8 * (i + 1)); })));
     cells.push_back(made_array<uint8_t>("UInt8", "types", 1, n, Array::EMPTY, threads, path,
                                         each<uint8_t>([](size_t) { return VTK_VOXEL_TYPE; })));
 
-    // the XML, the offsets of the data in it
-    uint64_t offset = 0;
-    auto put = [&](std::string &t, int indent, const Array &a) {
-        element(t, indent, a, offset);
-        offset += a.data.bytes();
-    };
-    std::string t = "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"";
-    t += VTK_BYTE_ORDER;
-    t += "\" header_type=\"UInt64\" compressor=\"vtkLZ4DataCompressor\">\n"
-         "  <UnstructuredGrid>\n    <FieldData>\n";
-    for (const Array &a : field)
-        put(t, 6, a);
-    t += "    </FieldData>\n    <Piece";
-    t += reserved("NumberOfPoints", std::to_string(n_points));
-    t += reserved("NumberOfCells", std::to_string(n));
-    t += ">\n      <PointData>\n      </PointData>\n      <CellData Scalars=\"depth\">\n";
-    for (const Array &a : cell)
-        put(t, 8, a);
-    t += "      </CellData>\n      <Points>\n";
-    put(t, 8, points);
-    t += "      </Points>\n      <Cells>\n";
-    for (const Array &a : cells)
-        put(t, 8, a);
-    t += "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n"
-         "  <AppendedData encoding=\"raw\">\n   _";
+    // in the order of the data
+    std::vector<Array *> order;
+    for (std::vector<Array> *v : {&field, &cell})
+        for (Array &a : *v)
+            order.push_back(&a);
+    order.push_back(&points);
+    for (Array &a : cells)
+        order.push_back(&a);
 
-    Output out(path);
-    out.write(t.data(), t.size());
-    auto data = [&](const Array &a) {
-        out.write(a.data.header.data(), a.data.header_bytes());
-        a.data.each([&out](const char *p, size_t k) { out.write(p, k); });
+    // the XML: what VTK fills in later stands in room of a fixed size
+    auto xml = [&]() {
+        std::string t = "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"";
+        t += VTK_BYTE_ORDER;
+        t += "\" header_type=\"UInt64\" compressor=\"vtkLZ4DataCompressor\">\n"
+             "  <UnstructuredGrid>\n    <FieldData>\n";
+        for (const Array &a : field)
+            element(t, 6, a);
+        t += "    </FieldData>\n    <Piece";
+        t += reserved("NumberOfPoints", std::to_string(sp.size()));
+        t += reserved("NumberOfCells", std::to_string(n));
+        t += ">\n      <PointData>\n      </PointData>\n      <CellData Scalars=\"depth\">\n";
+        for (const Array &a : cell)
+            element(t, 8, a);
+        t += "      </CellData>\n      <Points>\n";
+        element(t, 8, points);
+        t += "      </Points>\n      <Cells>\n";
+        for (const Array &a : cells)
+            element(t, 8, a);
+        t += "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n"
+             "  <AppendedData encoding=\"raw\">\n   _";
+        return t;
     };
-    for (const Array &a : field)
-        data(a);
-    for (const Array &a : cell)
-        data(a);
-    data(points);
-    for (const Array &a : cells)
-        data(a);
+
+    // Into a file, each array's data written once made, into the memory of the
+    // array before (one array's compressed blocks held at a time), and the XML
+    // written again over its first draft once the data have given their offsets
+    // and ranges: its length does not change (the values fit the room VTK
+    // reserves for them).  Into a device or a pipe, which cannot be rewritten,
+    // the data are held until the XML is known.
+    Output out(path);
+    const bool in_place = !out.seekable();
+    std::string draft;
+    if (!in_place) {
+        draft = xml();
+        out.write(draft.data(), draft.size());
+    }
+    auto write_data = [&out](const Lz4Blocks &z) {
+        out.write(z.header.data(), z.header_bytes());
+        z.each([&out](const char *p, size_t k) { out.write(p, k); });
+    };
+    std::vector<Lz4Blocks> held;
+    std::vector<Lz4Spool> spools;
+    uint64_t offset = 0;
+    for (Array *a : order) {
+        Lz4Blocks z = a->make(*a, std::move(spools));
+        a->offset = offset;
+        offset += z.bytes();
+        if (in_place) {
+            held.push_back(std::move(z));
+        } else {
+            write_data(z);
+            spools = std::move(z.spools);
+        }
+    }
     static const char end[] = "\n  </AppendedData>\n</VTKFile>\n";
-    out.write(end, sizeof end - 1);
+    const std::string t = xml();
+    if (in_place) {
+        out.write(t.data(), t.size());
+        for (const Lz4Blocks &z : held)
+            write_data(z);
+        out.write(end, sizeof end - 1);
+    } else {
+        if (t.size() != draft.size())
+            throw Error(std::string("cannot write ") + path + ": the XML header changed length");
+        out.write(end, sizeof end - 1);
+        out.write_at(0, t.data(), t.size());
+    }
     out.commit();
 }
 

@@ -306,7 +306,8 @@ static int write_save(const scene_t *s, const oct_tree_t *t, io_group_t *g, cons
  * the peak resident size measured per unit (ivoct build on gumdrop and sphere
  * at depths 7 and 8; cli/README.md) with a margin of about 1.5. */
 #define MEM_VTU_PER_LEAF 500.0    /* measured 61 .. 133 bytes, 125 .. 216 with slabs (vtu_xml.cpp) */
-#define MEM_HTG_PER_NODE 105.0    /* measured 31 .. 70 bytes per node (export/htg_xml.cpp) */
+#define MEM_HTG_PER_NODE 40.0     /* measured 17 .. 18 bytes per node at depth 9 (htg_xml.cpp) */
+#define MEM_HTG_FIXED (32.0 * 1024 * 1024) /* VTK's libraries, the text buffer: 12 MB at depth 2 */
 #define MEM_VDB_PER_VOXEL 400.0   /* measured 131 .. 246 bytes per voxel of the max depth */
 #define MEM_VDB_FIXED (8.0 * 1024 * 1024)
 
@@ -350,7 +351,7 @@ int build_check_export_memory(const oct_tree_t *t, const char *cells, const char
         {"--save", save, 2.0 * tree_bytes(t) + 65536.0},
         {"--cells", cells, (double)exp_cells_memory(t, 1)},
         {"--vtu", ex->vtu, MEM_VTU_PER_LEAF * t->n_leaves},
-        {"--htg", ex->htg, MEM_HTG_PER_NODE * t->n_nodes},
+        {"--htg", ex->htg, MEM_HTG_PER_NODE * t->n_nodes + MEM_HTG_FIXED},
         {"--vdb", ex->vdb, MEM_VDB_PER_VOXEL * voxels + MEM_VDB_FIXED},
         {"--mesh", ex->mesh, MEM_VDB_PER_VOXEL * voxels + MEM_VDB_FIXED},
     };

@@ -177,12 +177,8 @@ public:
     void array(int indent, const char *type, const std::string &name, size_t tuples,
                const void *data, size_t bytes, const Range *range)
     {
-        const unsigned char *p = static_cast<const unsigned char *>(data);
         array(indent, type, name, tuples,
-              compress(bytes, [p](size_t at, size_t, unsigned char *, int) -> const void * {
-                  return p + at;
-              }),
-              range);
+              lz4_blocks(data, bytes, threads_, out_.path(), std::move(spools_)), range);
     }
 
     // The n bytes that bytes() gives, compressed (lz4_blocks) into the memory of

@@ -286,7 +286,8 @@ using BlockBytes =
 Lz4Blocks lz4_blocks(size_t n, int threads, const BlockBytes &bytes, const char *path,
                      std::vector<Lz4Spool> reuse = {});
 // The same for n bytes held at data.
-Lz4Blocks lz4_blocks(const void *data, size_t n, int threads, const char *path);
+Lz4Blocks lz4_blocks(const void *data, size_t n, int threads, const char *path,
+                     std::vector<Lz4Spool> reuse = {});
 
 // vtkDataArray::GetRange of one component: the least and greatest value, NaN
 // skipped; without any value VTK_DOUBLE_MAX, VTK_DOUBLE_MIN.  Integers compare

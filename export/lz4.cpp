@@ -79,14 +79,15 @@ Lz4Blocks lz4_blocks(size_t n, int threads, const BlockBytes &bytes, const char 
     return z;
 }
 
-Lz4Blocks lz4_blocks(const void *data, size_t n, int threads, const char *path)
+Lz4Blocks lz4_blocks(const void *data, size_t n, int threads, const char *path,
+                     std::vector<Lz4Spool> reuse)
 {
     const unsigned char *p = static_cast<const unsigned char *>(data);
     return lz4_blocks(n, threads,
                       [p](size_t at, size_t, unsigned char *, int) -> const void * {
                           return p + at;
                       },
-                      path);
+                      path, std::move(reuse));
 }
 
 }  // namespace ivexp

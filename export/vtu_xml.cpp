@@ -494,12 +494,7 @@ Array held_array(std::string attributes, Array::Ranges ranges, Range range, cons
 {
     return {std::move(attributes), ranges, range,
             [data, n, path](Array &, std::vector<Lz4Spool> reuse) {
-                return lz4_blocks(
-                    n, 1,
-                    [data](size_t at, size_t, unsigned char *, int) -> const void * {
-                        return static_cast<const unsigned char *>(data) + at;
-                    },
-                    path, std::move(reuse));
+                return lz4_blocks(data, n, 1, path, std::move(reuse));
             }};
 }
 

@@ -83,43 +83,24 @@ static const char *extension_of(const char *path)
 static int open_tmp(io_file_t *out, const char *path, const char *ext, ivoct_error_t *err)
 {
     memset(out, 0, sizeof *out);
-    size_t n = strlen(path), extra = 48 + strlen(ext);
-    out->path = malloc(n + 1);
+    /* a symbolic link is followed: the file it names is replaced, the link
+     * stays (renamed over, the link would become the file; /dev/stdout,
+     * when stdout is a file, would be replaced); a dangling one is replaced */
+    struct stat st;
+    char *target = lstat(path, &st) == 0 && S_ISLNK(st.st_mode) ? realpath(path, NULL) : NULL;
+    size_t n = strlen(target ? target : path), extra = 48 + strlen(ext);
+    out->path = target ? target : malloc(n + 1);
     out->tmp = malloc(n + extra);
     reg_entry_t *e = malloc(sizeof *e);
     if (!out->path || !out->tmp || !e) {
         free(e);
-        free_file(out);
         ivoct_error_set(err, "cannot write %s: out of memory", path);
+        free_file(out);
         return -1;
     }
-    memcpy(out->path, path, n + 1);
-    /* a symbolic link is followed: the file it names is replaced, the link
-     * stays (renamed over, the link would become the file; /dev/stdout,
-     * when stdout is a file, would be replaced) */
-    struct stat st;
-    if (lstat(path, &st) == 0 && S_ISLNK(st.st_mode)) {
-        char *target = realpath(path, NULL);
-        if (target) {
-            size_t m = strlen(target);
-            char *p = realloc(out->path, m + 1), *t = p ? realloc(out->tmp, m + extra) : NULL;
-            if (p)
-                out->path = p;
-            if (t)
-                out->tmp = t;
-            if (!p || !t) {
-                free(target);
-                free(e);
-                free_file(out);
-                ivoct_error_set(err, "cannot write %s: out of memory", path);
-                return -1;
-            }
-            memcpy(out->path, target, m + 1);
-            free(target);
-            path = out->path;
-            n = m;
-        }
-    }
+    if (!target)
+        memcpy(out->path, path, n + 1);
+    path = out->path;
     /* a device or a pipe (/dev/stdout, /dev/full) is written in place: it
      * cannot be renamed over, and it holds no file to leave half-written */
     if (stat(path, &st) == 0 && !S_ISREG(st.st_mode)) {

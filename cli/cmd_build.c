@@ -308,8 +308,9 @@ static int write_save(const scene_t *s, const oct_tree_t *t, io_group_t *g, cons
 #define MEM_VTU_PER_LEAF 500.0    /* measured 61 .. 133 bytes, 125 .. 216 with slabs (vtu_xml.cpp) */
 #define MEM_HTG_PER_NODE 40.0     /* measured 17 .. 18 bytes per node at depth 9 (htg_xml.cpp) */
 #define MEM_HTG_FIXED (32.0 * 1024 * 1024) /* VTK's libraries, the text buffer: 12 MB at depth 2 */
-#define MEM_VDB_PER_VOXEL 400.0   /* measured 131 .. 246 bytes per voxel of the max depth */
-#define MEM_VDB_FIXED (8.0 * 1024 * 1024)
+#define MEM_VDB_PER_VOXEL 40.0    /* measured 26 bytes per voxel of the max depth (vdb.cpp) */
+#define MEM_MESH_PER_VOXEL 220.0  /* measured 148: the sdf grid's values held, and the mesh */
+#define MEM_VDB_FIXED (48.0 * 1024 * 1024) /* OpenVDB's libraries and more: measured 34 MB */
 
 
 static double tree_bytes(const oct_tree_t *t)
@@ -353,7 +354,7 @@ int build_check_export_memory(const oct_tree_t *t, const char *cells, const char
         {"--vtu", ex->vtu, MEM_VTU_PER_LEAF * t->n_leaves},
         {"--htg", ex->htg, MEM_HTG_PER_NODE * t->n_nodes + MEM_HTG_FIXED},
         {"--vdb", ex->vdb, MEM_VDB_PER_VOXEL * voxels + MEM_VDB_FIXED},
-        {"--mesh", ex->mesh, MEM_VDB_PER_VOXEL * voxels + MEM_VDB_FIXED},
+        {"--mesh", ex->mesh, MEM_MESH_PER_VOXEL * voxels + MEM_VDB_FIXED},
     };
     double base = tree_bytes(t);
     for (size_t k = 0; k < sizeof need / sizeof need[0]; k++)

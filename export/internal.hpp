@@ -7,10 +7,12 @@
 #ifndef IVOCT_EXPORT_INTERNAL_HPP
 #define IVOCT_EXPORT_INTERNAL_HPP
 
+#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <functional>
 #include <memory>
@@ -245,13 +247,28 @@ constexpr const char *VTK_BYTE_ORDER = "BigEndian";
 #endif
 
 // A thread's compressed blocks, end to end, in the order it made them; grown by
-// mem_huge_realloc (a large block moves its pages, no copy).
+// mem_huge_realloc (a large block moves its pages, no copy).  Also the .vdb
+// writer's encoded leaf nodes (vdb.cpp, LeafBytes): no LZ4 here.
 struct Lz4Spool {
     HugeArray<char> data;
     size_t size = 0, cap = 0;
     // p[0, n) appended, at least `first` bytes of room taken when there is none;
     // returns where they start
-    size_t append(const char *p, size_t n, size_t first);
+    size_t append(const char *p, size_t n, size_t first)
+    {
+        if (size + n > cap) {
+            const size_t cap2 = std::max(std::max(2 * cap, first), size + n);
+            char *q = static_cast<char *>(mem_huge_realloc(data.get(), cap2));
+            if (!q)
+                throw std::bad_alloc();
+            data.release();
+            data.reset(q);
+            cap = cap2;
+        }
+        std::memcpy(data.get() + size, p, n);
+        size += n;
+        return size - n;
+    }
 };
 
 // An array's compressed data: the header, and the blocks where the threads that

@@ -16,22 +16,6 @@ constexpr int LZ4_ACCELERATION = 5;   // vtkLZ4DataCompressor at the writer's le
 constexpr size_t PARALLEL_BLOCKS = 8; // fewer blocks than this: one thread
 }  // namespace
 
-size_t Lz4Spool::append(const char *p, size_t n, size_t first)
-{
-    if (size + n > cap) {
-        const size_t cap2 = std::max(std::max(2 * cap, first), size + n);
-        char *q = static_cast<char *>(mem_huge_realloc(data.get(), cap2));
-        if (!q)
-            throw std::bad_alloc();
-        data.release();
-        data.reset(q);
-        cap = cap2;
-    }
-    std::memcpy(data.get() + size, p, n);
-    size += n;
-    return size - n;
-}
-
 Lz4Blocks lz4_blocks(size_t n, int threads, const BlockBytes &bytes, const char *path,
                      std::vector<Lz4Spool> reuse)
 {

@@ -3,6 +3,7 @@
 // file that includes OpenVDB (its headers are slow to compile).
 #include <algorithm>
 #include <cerrno>
+#include <cfloat>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -10,6 +11,7 @@
 #include <ostream>
 #include <streambuf>
 #include <string>
+#include <string_view>
 #include <system_error>
 #include <thread>
 #include <vector>
@@ -34,6 +36,7 @@ using openvdb::CoordBBox;
 using openvdb::FloatGrid;
 using openvdb::Vec3d;
 using Leaf = openvdb::FloatTree::LeafNodeType;
+using Mask = Leaf::NodeMaskType;
 
 // A std::ostream onto the FILE* of an io_file_t: OpenVDB writes into the
 // temporary file, io_commit checks, closes and renames it.
@@ -79,6 +82,113 @@ protected:
     }
 };
 
+// A grid leaf node's coordinates (origin / 8), packed 21 bits an axis, x
+// first: the voxels of a tree of depth D <= 21 are in [0, 2^21).
+uint64_t node_key(const Coord &origin)
+{
+    return (uint64_t)(uint32_t)(origin[0] >> Leaf::LOG2DIM) << 42 |
+           (uint64_t)(uint32_t)(origin[1] >> Leaf::LOG2DIM) << 21 |
+           (uint64_t)(uint32_t)(origin[2] >> Leaf::LOG2DIM);
+}
+
+Coord node_origin(uint64_t key)
+{
+    return Coord((int32_t)(key >> 42), (int32_t)(key >> 21 & 0x1fffff), (int32_t)(key & 0x1fffff))
+           << Leaf::LOG2DIM;
+}
+
+// The bytes of leaf nodes made without their values.  A grid builder given
+// one makes its leaf nodes with the value mask alone (LeafNode's PartialCreate:
+// all that the topology, the statistics and the band's dilation read) and
+// hands each node's values, made in a worker's scratch, to a Writer, which
+// writes what LeafNode::writeBuffers would write for the node (OpenVDB's own
+// NodeMask::save and io::writeCompressedValues, with the grid's compression
+// flags and background) at the end of the worker's spool.
+// VdbStream::write_grid writes those bytes in place of the node's.  So the
+// grids' values, 2 KB a node and most of the writer's memory, are never held,
+// and each node is compressed while in cache.
+class LeafBytes {
+    struct Piece {
+        uint64_t key;  // node_key
+        uint32_t worker;
+        size_t at, size;
+    };
+
+public:
+    LeafBytes(uint32_t flags, float background) : flags_(flags), background_(background) {}
+
+    uint32_t flags() const { return flags_; }
+    float background() const { return background_; }
+
+    // room for the builder's workers, numbered from 0
+    void workers(size_t n)
+    {
+        spools_.resize(n);
+        pieces_.resize(n);
+    }
+
+    // What one worker encodes, a node at a time.
+    class Writer {
+    public:
+        Writer(LeafBytes &b, size_t worker)
+            : spool_(b.spools_.at(worker)), pieces_(b.pieces_.at(worker)),
+              worker_((uint32_t)worker), o_(&node_)
+        {
+            openvdb::io::setDataCompression(o_, b.flags_);
+            openvdb::io::setGridBackgroundValuePtr(o_, &b.background_);
+        }
+        // (values is only read: io::writeCompressedValues takes a non-const pointer)
+        void add(const Coord &origin, const Mask &mask, float *values)
+        {
+            node_.s.clear();
+            mask.save(o_);
+            openvdb::io::writeCompressedValues(o_, values, Leaf::SIZE, mask, Mask(), false);
+            if (!o_)
+                throw Error("the .vdb writer: a leaf node could not be encoded");
+            const size_t at = spool_.append(node_.s.data(), node_.s.size(), SPOOL_FIRST);
+            pieces_.push_back({node_key(origin), worker_, at, node_.s.size()});
+        }
+
+    private:
+        static constexpr size_t SPOOL_FIRST = (size_t)1 << 21;  // one huge page
+        Lz4Spool &spool_;
+        std::vector<Piece> &pieces_;
+        uint32_t worker_;
+        StringBuf node_;  // one node's bytes
+        std::ostream o_;
+    };
+
+    // After the builder's workers: the nodes sorted by origin.
+    void index()
+    {
+        index_.clear();
+        for (const std::vector<Piece> &w : pieces_)
+            index_.insert(index_.end(), w.begin(), w.end());
+        std::vector<std::vector<Piece>>().swap(pieces_);
+        std::sort(index_.begin(), index_.end(),
+                  [](const Piece &a, const Piece &b) { return a.key < b.key; });
+    }
+
+    // The bytes of the node at origin; none (a null data()) if it was not
+    // encoded here.
+    std::string_view find(const Coord &origin) const
+    {
+        const uint64_t key = node_key(origin);
+        auto it = std::lower_bound(index_.begin(), index_.end(), key,
+                                   [](const Piece &p, uint64_t k) { return p.key < k; });
+        if (it == index_.end() || it->key != key)
+            return std::string_view();
+        return std::string_view(spools_[it->worker].data.get() + it->at, it->size);
+    }
+
+private:
+    uint32_t flags_;
+    float background_;
+    std::vector<Lz4Spool> spools_;  // a worker's nodes' bytes, end to end
+    std::vector<std::vector<Piece>> pieces_;
+    std::vector<Piece> index_;
+};
+
 // OpenVDB's Stream::write (io::Archive::write and writeGrid, OpenVDB 10) with
 // each leaf node compressed once, over threads.  Archive::writeGrid compresses
 // every leaf node (TBB) only to record its compressed size in the grid's
@@ -96,10 +206,14 @@ public:
 
     // Each grid is freed once written (the last reference: the caller's moved
     // in), so that the next one's buffers and the file's pages reuse its memory.
+    // bytes[i], if any, holds the bytes of grids[i]'s leaf nodes made without
+    // their values.
     void write_file(std::ostream &os, std::vector<FloatGrid::Ptr> grids,
-               const openvdb::MetaMap &meta) const
+                    std::vector<std::unique_ptr<LeafBytes>> bytes,
+                    const openvdb::MetaMap &meta) const
     {
         namespace io = openvdb::io;
+        bytes.resize(grids.size());
         io::StreamMetadata::Ptr file_meta(new io::StreamMetadata);
         io::setStreamMetadataPtr(os, file_meta, /*transfer=*/false);
         io::setDataCompression(os, compression());
@@ -108,13 +222,26 @@ public:
         meta.writeMeta(os);
         const int32_t count = (int32_t)grids.size();
         os.write(reinterpret_cast<const char *>(&count), sizeof count);
-        for (FloatGrid::Ptr &g : grids) {
-            write_grid(os, *g);
-            g.reset();
+        for (size_t i = 0; i < grids.size(); i++) {
+            write_grid(os, *grids[i], bytes[i].get());
+            grids[i].reset();
+            bytes[i].reset();
             // per-grid settings restored for the next, as Archive::write does
             io::setStreamMetadataPtr(os, file_meta, /*transfer=*/false);
             io::setDataCompression(os, compression());
         }
+    }
+
+    // The compression flags write_grid uses for a grid of class c
+    // (Archive::setGridCompression's, written into a scratch stream).
+    uint32_t grid_compression(openvdb::GridClass c) const
+    {
+        FloatGrid g;
+        g.setGridClass(c);
+        StringBuf scratch;
+        std::ostream o(&scratch);
+        setGridCompression(o, g);
+        return openvdb::io::getDataCompression(o);
     }
 
 private:
@@ -141,7 +268,7 @@ private:
         return (int64_t)(n - head);
     }
 
-    void write_grid(std::ostream &os, const FloatGrid &g) const
+    void write_grid(std::ostream &os, const FloatGrid &g, const LeafBytes *encoded) const
     {
         namespace io = openvdb::io;
         if (g.saveFloatAsHalf())
@@ -159,25 +286,53 @@ private:
         gd.writeStreamPos(os);  // not seekable: no offsets
         setGridCompression(os, g);
         const uint32_t flags = io::getDataCompression(os);  // the grid's
+        const float bg = g.tree().background();
+        if (encoded && (encoded->flags() != flags || encoded->background() != bg))
+            throw Error("the .vdb writer: leaf nodes encoded with another grid's settings");
 
-        // the leaf nodes, in Tree::writeBuffers' order, written by workers
+        // each leaf node's bytes, in Tree::writeBuffers' order: those made
+        // without values from `encoded`, the others written here by workers
         std::vector<const Leaf *> leaves;
         g.tree().getNodes(leaves);
-        const float bg = g.tree().background();
         constexpr size_t chunk = 64;
         std::vector<StringBuf> bufs((leaves.size() + chunk - 1) / chunk);
-        std::vector<uint32_t> bytes(leaves.size());
+        std::vector<std::string_view> bytes(leaves.size());
+        std::vector<size_t> written(leaves.size());  // by a worker: its length there
         parallel_chunks(leaves.size(), chunk, threads_, [&](size_t s, size_t e, int) {
             StringBuf &b = bufs[s / chunk];
             std::ostream o(&b);
             io::setDataCompression(o, flags);
             io::setGridBackgroundValuePtr(o, &bg);
             for (size_t i = s; i < e; i++) {
+                // a node is either made without values and encoded, or held
+                // (a held node that is also encoded: its buffer was allocated
+                // by some access after it was made, and holds no values)
+                const std::string_view made = encoded ? encoded->find(leaves[i]->origin())
+                                                      : std::string_view();
+                if (leaves[i]->buffer().empty() != (made.data() != nullptr))
+                    throw Error("the .vdb writer: a leaf node neither held nor encoded, or both");
+                if (made.data()) {
+                    bytes[i] = made;
+                    continue;
+                }
                 const size_t before = b.s.size();
                 leaves[i]->writeBuffers(o, false);
-                bytes[i] = (uint32_t)(b.s.size() - before);
+                written[i] = b.s.size() - before;
             }
         });
+        size_t without_values = 0;
+        for (size_t c = 0; c < bufs.size(); c++) {
+            size_t at = 0;
+            for (size_t i = c * chunk; i < std::min(leaves.size(), (c + 1) * chunk); i++) {
+                if (bytes[i].data()) {
+                    without_values++;
+                    continue;
+                }
+                bytes[i] = std::string_view(bufs[c].s).substr(at, written[i]);
+                at += written[i];
+            }
+        }
+        std::vector<size_t>().swap(written);
 
         // the grid's metadata as Archive::writeGrid makes it: the delayed-load
         // metadata (Archive::compression()'s, as OpenVDB's populateDelayedLoadMetadata
@@ -191,32 +346,29 @@ private:
             const bool sizes = compression() & (io::COMPRESS_BLOSC | io::COMPRESS_ZIP);
             if (sizes)
                 dl.resizeCompressedSize(leaves.size());
-            size_t at = 0;
             for (size_t i = 0; i < leaves.size(); i++) {
-                const std::string &b = bufs[i / chunk].s;
-                if (i % chunk == 0)
-                    at = 0;
                 int8_t mask_meta;
-                const int64_t size = compressed_size(b.data() + at, bytes[i], mask_meta);
+                const int64_t size = compressed_size(bytes[i].data(), bytes[i].size(), mask_meta);
                 dl.setMask(i, mask_meta);
                 if (sizes)
                     dl.setCompressedSize(i, size);
-                at += bytes[i];
             }
         }
         copy->insertMeta(openvdb::GridBase::META_FILE_DELAYED_LOAD, dl);
         if (io::getWriteGridStatsMetadata(os)) {
             copy->addStatsMetadata();
+            // the memory the grid would use with every node's values held
+            const openvdb::Index64 values = without_values * Leaf::SIZE * sizeof(float);
+            copy->insertMeta(openvdb::GridBase::META_FILE_MEM_BYTES,
+                             openvdb::Int64Metadata((int64_t)(copy->memUsage() + values)));
             copy->insertMeta(openvdb::GridBase::META_FILE_COMPRESSION,
                              openvdb::StringMetadata(io::compressionToString(flags)));
         }
         copy->writeMeta(os);
         g.writeTransform(os);
         g.writeTopology(os);
-        for (StringBuf &b : bufs) {
-            os.write(b.s.data(), (std::streamsize)b.s.size());
-            std::string().swap(b.s);
-        }
+        for (const std::string_view &b : bytes)
+            os.write(b.data(), (std::streamsize)b.size());
     }
 
     int threads_;
@@ -248,6 +400,8 @@ struct Frame {
         xf->postTranslate(Vec3d(lo[0] + 0.5 * h[0], lo[1] + 0.5 * h[1], lo[2] + 0.5 * h[2]));
     }
     double max_h() const { return std::max(h[0], std::max(h[1], h[2])); }
+    // the sdf grid's: the band's half width in world units
+    float sdf_background() const { return (float)(EXP_SDF_HALF_WIDTH * max_h()); }
 };
 
 // The voxels of a cell of depth d: its region at depth D.
@@ -261,10 +415,11 @@ CoordBBox cell_voxels(int D, int d, uint32_t ix, uint32_t iy, uint32_t iz)
 // The surface grid.  A leaf deeper than a grid leaf node (8^3 voxels, a cell
 // of depth D - 3) is a block of voxels of one node; the surface leaves are in
 // Morton order, so those of one node are contiguous: the nodes are made over
-// threads (their memory is most of this grid's time), each by the thread
-// whose chunk holds the node's first leaf, and added to the tree in order.
-// The shallower leaves are tiles (or tile-aligned fills), few, added after.
-FloatGrid::Ptr surface_grid(const oct_tree_t *t, const Frame &fr)
+// threads, each by the thread whose chunk holds the node's first leaf, and
+// added to the tree in order.  The shallower leaves are tiles (or tile-aligned
+// fills), few, added after.  Given `encoded`, the nodes are made without their
+// values, which go there.
+FloatGrid::Ptr surface_grid(const oct_tree_t *t, const Frame &fr, LeafBytes *encoded)
 {
     FloatGrid::Ptr g = FloatGrid::create(0.0f);
     g->setName("surface");
@@ -282,8 +437,16 @@ FloatGrid::Ptr surface_grid(const oct_tree_t *t, const Frame &fr)
     };
     const size_t n = t->n_leaves, chunk = 16384;
     std::vector<std::vector<std::unique_ptr<Leaf>>> made((n + chunk - 1) / chunk);
-    parallel_chunks(n, chunk, writer_threads(t, made.size()), [&](size_t s, size_t e, int) {
+    const int threads = writer_threads(t, made.size());
+    if (encoded)
+        encoded->workers((size_t)threads);
+    parallel_chunks(n, chunk, threads, [&](size_t s, size_t e, int w) {
         std::vector<std::unique_ptr<Leaf>> &out = made[s / chunk];
+        std::unique_ptr<LeafBytes::Writer> bytes;
+        if (encoded)
+            bytes = std::make_unique<LeafBytes::Writer>(*encoded, (size_t)w);
+        float v[Leaf::SIZE];  // a node's values: its leaves' depths, 0 elsewhere
+        Mask mask;
         size_t i = s;
         // a node begun in the chunk before is that chunk's
         const uint64_t before = s > 0 ? node_of((uint32_t)(s - 1)) : TILE;
@@ -295,24 +458,37 @@ FloatGrid::Ptr surface_grid(const oct_tree_t *t, const Frame &fr)
                 i++;
                 continue;
             }
-            Leaf *leaf = nullptr;
-            for (; i < n && node_of((uint32_t)i) == key; i++) {
+            std::fill(v, v + Leaf::SIZE, 0.0f);
+            mask.setOff();
+            Coord origin;
+            for (bool first = true; i < n && node_of((uint32_t)i) == key; i++, first = false) {
                 const oct_leaf_t &l = t->leaves[i];
                 uint32_t ix, iy, iz;
                 int depth = oct_leaf_depth(&l);
                 oct_unmorton(oct_leaf_code(&l), depth, &ix, &iy, &iz);
                 CoordBBox b = cell_voxels(fr.D, depth, ix, iy, iz);
-                if (!leaf) {
-                    out.push_back(std::make_unique<Leaf>(b.min() & ~(Leaf::DIM - 1), 0.0f, false));
-                    leaf = out.back().get();
-                }
+                if (first)
+                    origin = b.min() & ~(Leaf::DIM - 1);
                 for (int32_t x = b.min()[0]; x <= b.max()[0]; x++)
                     for (int32_t y = b.min()[1]; y <= b.max()[1]; y++)
-                        for (int32_t z = b.min()[2]; z <= b.max()[2]; z++)
-                            leaf->setValueOn(Leaf::coordToOffset(Coord(x, y, z)), (float)depth);
+                        for (int32_t z = b.min()[2]; z <= b.max()[2]; z++) {
+                            const openvdb::Index k = Leaf::coordToOffset(Coord(x, y, z));
+                            mask.setOn(k);
+                            v[k] = (float)depth;
+                        }
             }
+            if (bytes) {
+                out.push_back(std::make_unique<Leaf>(openvdb::PartialCreate(), origin, 0.0f));
+                bytes->add(origin, mask, v);
+            } else {
+                out.push_back(std::make_unique<Leaf>(origin, 0.0f, false));
+                std::copy(v, v + Leaf::SIZE, out.back()->buffer().data());
+            }
+            out.back()->setValueMask(mask);
         }
     });
+    if (encoded)
+        encoded->index();
     for (auto &v : made)
         for (auto &leaf : v)
             tree.addLeaf(leaf.release());
@@ -420,7 +596,6 @@ void node_classes(const oct_tree_t *t, const Frame &fr, const Coord &o, float bg
 // three segments, so the dilation is one axis at a time.
 constexpr int H = EXP_SDF_HALF_WIDTH;
 static_assert(H >= 0 && H <= (int)Leaf::DIM, "the band reaches only the neighbour nodes");
-using Mask = Leaf::NodeMaskType;
 
 template <class Accessor>
 bool band_mask(Accessor &surface, const Frame &fr, const Coord &o, Mask &out)
@@ -512,7 +687,7 @@ std::vector<uint64_t> band_candidates(const openvdb::FloatTree &surface, const F
         for (int32_t x = a[0]; x <= b[0]; x++)
             for (int32_t y = a[1]; y <= b[1]; y++)
                 for (int32_t z = a[2]; z <= b[2]; z++)
-                    keys.push_back((uint64_t)x << 42 | (uint64_t)y << 21 | (uint64_t)z);
+                    keys.push_back(node_key(Coord(x, y, z) << Leaf::LOG2DIM));
     };
     keys.reserve(8 * surface.leafCount());
     for (auto it = surface.cbeginLeaf(); it; ++it) {
@@ -564,11 +739,13 @@ std::vector<uint64_t> band_candidates(const openvdb::FloatTree &surface, const F
 }
 
 // The surface grid and the narrow-band level set (see export.h): surface set
-// to the surface grid.
+// to the surface grid.  Given LeafBytes, a grid's leaf nodes are made without
+// their values, which go there (surface_grid).
 FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr,
-                        FloatGrid::Ptr &surface_out)
+                        FloatGrid::Ptr &surface_out, LeafBytes *surface_encoded = nullptr,
+                        LeafBytes *sdf_encoded = nullptr)
 {
-    const float bg = (float)(EXP_SDF_HALF_WIDTH * fr.max_h());
+    const float bg = fr.sdf_background();
     FloatGrid::Ptr g = FloatGrid::create(bg);
     g->setName("sdf");
     g->setGridClass(openvdb::GRID_LEVEL_SET);
@@ -604,7 +781,7 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
         }
     } join{inside};  // also when the code below throws
 
-    surface_out = surface_grid(t, fr);
+    surface_out = surface_grid(t, fr, surface_encoded);
     const openvdb::FloatTree &stree = surface_out->tree();
 
     // The band's grid leaf nodes, made whole over threads: their voxels
@@ -619,27 +796,36 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
     const size_t chunk = 64;
     std::vector<std::vector<std::unique_ptr<Leaf>>> made((keys.size() + chunk - 1) / chunk);
     const int threads = writer_threads(t, made.size());
+    if (sdf_encoded)
+        sdf_encoded->workers((size_t)threads);
     std::vector<std::unique_ptr<Workspace>> ws;
     for (int w = 0; w < threads; w++)
         ws.push_back(std::make_unique<Workspace>(tape));
     parallel_chunks(keys.size(), chunk, threads, [&](size_t s, size_t e, int w) {
         constexpr size_t N = Leaf::SIZE;
-        openvdb::tree::ValueAccessor<const openvdb::FloatTree> acc(stree);
+        // an accessor that caches no leaf node: ValueAccessor's leaf cache
+        // allocates the node's buffer (LeafBuffer::data), which a node made
+        // without its values (LeafBytes) must not have
+        openvdb::tree::ValueAccessor2<const openvdb::FloatTree, true, 1, 2> acc(stree);
         std::vector<double> x(N), y(N), z(N);
         std::vector<tape_point_grad_t> out(N);
         std::vector<openvdb::Index> offset(N);
         std::vector<signed char> sign(N);  // 0: in a surface leaf
+        std::vector<float> dist(N);
         double p[3][Leaf::DIM];            // voxel centres along each axis
         Mask mask;
+        std::unique_ptr<LeafBytes::Writer> bytes;
+        if (sdf_encoded)
+            bytes = std::make_unique<LeafBytes::Writer>(*sdf_encoded, (size_t)w);
+        float scratch[Leaf::SIZE];
         for (size_t i = s; i < e; i++) {
-            const uint64_t k = keys[i];
-            const Coord o = Coord((int32_t)(k >> 42), (int32_t)(k >> 21 & 0x1fffff),
-                                  (int32_t)(k & 0x1fffff))
-                            << Leaf::LOG2DIM;
-            if (!band_mask(acc, fr, o, mask))
+            const Coord o = node_origin(keys[i]);
+            if (!band_mask(acc, fr, o, mask))  // else a voxel is on: pruneLevelSet keeps the node
                 continue;
-            auto node = std::make_unique<Leaf>(o, bg, false);
-            float *v = node->buffer().data();  // the node's values, written in place
+            // the node's values, written in place or, to be encoded, in the scratch
+            auto node = bytes ? std::make_unique<Leaf>(openvdb::PartialCreate(), o, bg)
+                              : std::make_unique<Leaf>(o, bg, false);
+            float *v = bytes ? scratch : node->buffer().data();
             node_classes(t, fr, o, bg, v);
             node->setValueMask(mask);
             // the surface grid's voxels here: its leaf node of the same origin,
@@ -649,34 +835,52 @@ FloatGrid::Ptr sdf_grid(const oct_tree_t *t, const tape_t *tape, const Frame &fr
             for (int a = 0; a < 3; a++)
                 for (openvdb::Index j = 0; j < Leaf::DIM; j++)
                     p[a][j] = fr.lo[a] + ((double)(o[a] + (int32_t)j) + 0.5) * fr.h[a];
+            // the band's voxels in the order of the mask's bits: a word of 64
+            // (y << 3 | z) per x
             size_t m = 0;
-            for (auto it = mask.beginOn(); it; ++it, m++) {
-                const openvdb::Index n = it.pos();  // (x << 6) | (y << 3) | z
-                offset[m] = n;
-                const bool in_surface = sl ? sl->isValueOn(n) : s_tile_on;
-                sign[m] = in_surface ? 0 : v[n] < 0 ? -1 : 1;
-                x[m] = p[0][n >> 2 * Leaf::LOG2DIM];
-                y[m] = p[1][(n >> Leaf::LOG2DIM) & (Leaf::DIM - 1)];
-                z[m] = p[2][n & (Leaf::DIM - 1)];
+            for (openvdb::Index ix = 0; ix < Leaf::DIM; ix++) {
+                uint64_t word = mask.template getWord<uint64_t>(ix);
+                const uint64_t surf = sl ? sl->getValueMask().template getWord<uint64_t>(ix)
+                                         : s_tile_on ? ~(uint64_t)0 : 0;
+                for (; word; word &= word - 1, m++) {
+                    const unsigned b = (unsigned)__builtin_ctzll(word);
+                    const openvdb::Index n = ix << 2 * Leaf::LOG2DIM | b;
+                    offset[m] = n;
+                    sign[m] = surf >> b & 1 ? 0 : v[n] < 0 ? -1 : 1;
+                    x[m] = p[0][ix];
+                    y[m] = p[1][b >> Leaf::LOG2DIM];
+                    z[m] = p[2][b & (Leaf::DIM - 1)];
+                }
             }
             tape_eval_point_grad(tape, ws[(size_t)w]->ws, m, x.data(), y.data(), z.data(),
                                  out.data());
+            // without branches, so that the lanes vectorise: each quotient
+            // and product is made, then the ones that apply selected
+            const double bgd = bg, least = 1e-3 * fr.max_h();
             for (size_t j = 0; j < m; j++) {
                 const tape_point_grad_t &q = out[j];
-                double f = q.v;
-                double gn = std::sqrt(q.dx * q.dx + q.dy * q.dy + q.dz * q.dz);
-                double d = gn > 0 && std::isfinite(gn) ? f / gn : f > 0 ? bg : f < 0 ? -bg : 0;
-                if (std::isnan(d))  // f undefined here: outside
-                    d = bg;
-                d = std::max(-(double)bg, std::min((double)bg, d));
-                int cls = sign[j];
-                if (cls != 0 && !(d * cls > 0))  // the certified class wins; keep |d| if any
-                    d = cls * std::max(std::fabs(d), 1e-3 * fr.max_h());
-                v[offset[j]] = (float)d;
+                const double f = q.v;
+                const double gn = std::sqrt(q.dx * q.dx + q.dy * q.dy + q.dz * q.dz);
+                const double ratio = f / gn;
+                // a gradient of 0, inf or NaN: the sign of f
+                double d = ((gn > 0) & (gn <= DBL_MAX)) ? ratio : f > 0 ? bgd : f < 0 ? -bgd : 0.0;
+                d = d != d ? bgd : d;  // f undefined here: outside
+                d = d < bgd ? d : bgd;
+                d = -bgd < d ? d : -bgd;
+                const double cls = sign[j];
+                const double kept = cls * (std::fabs(d) < least ? least : std::fabs(d));
+                d = ((cls != 0) & !(d * cls > 0)) ? kept : d;  // the certified class wins; keep |d| if any
+                dist[j] = (float)d;
             }
+            for (size_t j = 0; j < m; j++)
+                v[offset[j]] = dist[j];
+            if (bytes)
+                bytes->add(o, mask, v);
             made[s / chunk].push_back(std::move(node));
         }
     });
+    if (sdf_encoded)
+        sdf_encoded->index();
     if (inside.joinable())
         inside.join();
     if (inside_failed)
@@ -708,10 +912,21 @@ void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *s
 {
     init();
     Frame fr(tree);
+    // the test hook: io::Stream itself, which needs every node's values held
+    const char *hook = std::getenv("IVOCT_VDB_STREAM");
+    const bool openvdb_stream = hook && !std::strcmp(hook, "openvdb");
+    const VdbStream stream(writer_threads(tree, (size_t)1 << 20));
+    std::vector<std::unique_ptr<LeafBytes>> bytes;
+    if (!openvdb_stream) {
+        bytes.push_back(std::make_unique<LeafBytes>(
+            stream.grid_compression(openvdb::GRID_UNKNOWN), 0.0f));  // the surface grid's
+        bytes.push_back(std::make_unique<LeafBytes>(
+            stream.grid_compression(openvdb::GRID_LEVEL_SET), fr.sdf_background()));
+    }
     FloatGrid::Ptr surface;
-    FloatGrid::Ptr sdf = sdf_grid(tree, tape, fr, surface);
+    FloatGrid::Ptr sdf = sdf_grid(tree, tape, fr, surface, bytes.empty() ? nullptr : bytes[0].get(),
+                                  bytes.empty() ? nullptr : bytes[1].get());
     openvdb::MetaMap m = metadata(tree, src);
-    const int threads = writer_threads(tree, (size_t)1 << 20);
     std::vector<FloatGrid::Ptr> grids{std::move(surface), std::move(sdf)};
     for (auto &g : grids) {
         for (auto it = m.beginMeta(); it != m.endMeta(); ++it)
@@ -720,11 +935,10 @@ void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *s
     Output out(path);
     FileBuf buf(out.file());
     std::ostream os(&buf);
-    const char *hook = std::getenv("IVOCT_VDB_STREAM");
-    if (hook && !std::strcmp(hook, "openvdb"))
+    if (openvdb_stream)
         openvdb::io::Stream(os).write(openvdb::GridPtrVec(grids.begin(), grids.end()), m);
     else
-        VdbStream(threads).write_file(os, std::move(grids), m);
+        stream.write_file(os, std::move(grids), std::move(bytes), m);
     os.flush();
     if (!os)
         throw Error(std::string("cannot write ") + path + ": " +

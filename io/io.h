@@ -24,6 +24,7 @@ typedef struct io_file {
     char *path;       /* the destination */
     char *tmp;        /* the temporary name (NULL: a device, written in place) */
     void *reg;        /* internal: the entry of tmp in the registry */
+    char *buf;        /* internal: f's buffer (128 KiB, io.c), freed once f is closed */
 } io_file_t;
 
 /* Open a temporary file beside path.  Returns 0, or non-zero with err set

@@ -193,9 +193,10 @@ private:
 // each leaf node compressed once, over threads.  Archive::writeGrid compresses
 // every leaf node (TBB) only to record its compressed size in the grid's
 // delayed-load metadata, which comes before the topology, and then again, on
-// one thread, as it writes the buffers.  Here the leaf nodes are written first
+// one thread, as it writes the buffers.  Here each leaf node's bytes come
+// first: encoded when it was made (LeafBytes), else written by workers
 // (LeafNode::writeBuffers, each into a worker's string, with the grid's
-// compression flags and background), the delayed-load metadata is read off
+// compression flags and background); the delayed-load metadata is read off
 // those bytes, and the metadata, transform, topology and buffers then go out
 // in Archive's order: the same file, byte for byte, but the UUID.  The test
 // hook IVOCT_VDB_STREAM=openvdb writes with io::Stream itself instead, so that

@@ -306,8 +306,8 @@ static int write_save(const scene_t *s, const oct_tree_t *t, io_group_t *g, cons
  * the peak resident size measured per unit (ivoct build on gumdrop and sphere
  * at depths 7 and 8; cli/README.md) with a margin of about 1.5. */
 #define MEM_VTU_PER_LEAF 500.0    /* measured 61 .. 133 bytes, 125 .. 216 with slabs (vtu_xml.cpp) */
-#define MEM_HTG_PER_NODE 40.0     /* measured 17 .. 18 bytes per node at depth 9 (htg_xml.cpp) */
-#define MEM_HTG_FIXED (32.0 * 1024 * 1024) /* VTK's libraries, the text buffer: 12 MB at depth 2 */
+#define MEM_HTG_PER_NODE 40.0     /* measured 13 .. 17 bytes per node at depth 9 (htg_xml.cpp) */
+#define MEM_HTG_FIXED (8.0 * 1024 * 1024) /* its text and windows: 1.6 MB at depth 2 */
 #define MEM_VDB_PER_VOXEL 40.0    /* measured 26 bytes per voxel of the max depth (vdb.cpp) */
 #define MEM_MESH_PER_VOXEL 220.0  /* measured 148: the sdf grid's values held, and the mesh */
 #define MEM_VDB_FIXED (48.0 * 1024 * 1024) /* OpenVDB's libraries and more: measured 34 MB */

@@ -3,8 +3,8 @@
 //
 // The file is what VTK 9.1's vtkXMLHyperTreeGridWriter writes in binary mode
 // with UInt64 headers and its LZ4 compressor, byte for byte: the same XML (its
-// attributes, indentation and number formatting: vtkNumberToString, the
-// shortest digits that read back), the same arrays in the same order, each
+// attributes, indentation and number formatting: vtk_number, the shortest
+// digits that read back), the same arrays in the same order, each
 // one's data compressed as VTK does (lz4_blocks, internal.hpp), the
 // compressed-data header base64-encoded, then the compressed blocks
 // base64-encoded as one stream.  What this writer does
@@ -24,15 +24,14 @@
 //       vtkHyperTree numbers them when built depth first: a split node's 8
 //       children take the next 8 numbers when the walk reaches it.
 #include <algorithm>
+#include <charconv>
 #include <cmath>
+#include <condition_variable>
+#include <cstdlib>
 #include <cstring>
-#include <locale>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <vector>
-
-#include <vtkNumberToString.h>
 
 #include "internal.hpp"
 
@@ -58,16 +57,7 @@ inline bool is_split(const oct_tree_t *tree, const HtgNode &n)
     return OCT_NODE_KIND(tree->nodes[n.node]) == OCT_INTERIOR;
 }
 
-// ---- numbers and base64 -------------------------------------------------------------
-// A double as vtkXMLWriter writes an attribute (vtkNumberToString: shortest round trip).
-std::string num(double v)
-{
-    std::ostringstream s;
-    s.imbue(std::locale::classic());
-    s << vtkNumberToString()(v);
-    return s.str();
-}
-
+// ---- base64 -------------------------------------------------------------------------
 const char B64[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
 
 inline size_t b64_size(size_t n) { return (n + 2) / 3 * 4; }
@@ -130,6 +120,21 @@ struct Bits {
         n -= k;
         bytes.resize((n + 7) / 8);
     }
+    void append(const Bits &o)  // o's bits after these
+    {
+        const unsigned shift = (unsigned)(n & 7);
+        if (!shift) {
+            bytes.insert(bytes.end(), o.bytes.begin(), o.bytes.end());
+        } else {
+            for (unsigned char b : o.bytes) {
+                bytes.back() |= (unsigned char)(b >> shift);
+                bytes.push_back((unsigned char)(b << (8 - shift)));
+            }
+        }
+        n += o.n;
+        ones += o.ones;
+        bytes.resize((n + 7) / 8);  // (the bits past n are o's unused ones: 0)
+    }
     Range range() const
     {
         Range r;
@@ -165,7 +170,8 @@ public:
             text_ += " NumberOfTuples=\"" + std::to_string(tuples) + "\"";
         text_ += " format=\"binary\"";
         if (range)
-            text_ += " RangeMin=\"" + num(range->lo) + "\" RangeMax=\"" + num(range->hi) + "\"";
+            text_ += " RangeMin=\"" + vtk_number(range->lo) + "\" RangeMax=\"" +
+                     vtk_number(range->hi) + "\"";
         text_ += ">\n" + pad + "  ";
         binary(z);
         text_ += "\n" + pad + "</" + tag + ">\n";
@@ -195,9 +201,8 @@ public:
     }
 
 private:
-    static constexpr size_t FLUSH = (size_t)8 << 20;      // the text written out past this
-    static constexpr size_t WINDOW = 3 * ((size_t)1 << 20); // compressed bytes encoded at once
-    static constexpr size_t PIECE = 3 * ((size_t)1 << 16);  // a thread's share of a window
+    static constexpr size_t FLUSH = (size_t)1 << 20;         // the text written out past this
+    static constexpr size_t WINDOW = 3 * ((size_t)1 << 18);  // compressed bytes encoded at once
 
     void flush()
     {
@@ -205,48 +210,81 @@ private:
         text_.clear();
     }
 
-    // n bytes as base64 at the end of the text: by threads, in pieces of a
-    // multiple of 3 bytes, when there are several
+    // n bytes as base64 at the end of the text
     void encode(const unsigned char *p, size_t n)
     {
-        const size_t at = text_.size(), pieces = (n + PIECE - 1) / PIECE;
+        const size_t at = text_.size();
         text_.resize(at + b64_size(n));
-        parallel_chunks(pieces, 1, std::min(threads_, (int)pieces), [&](size_t k, size_t, int) {
-            const size_t s = k * PIECE;
-            b64_encode(p + s, std::min(PIECE, n - s), &text_[at + s / 3 * 4]);
-        });
-        if (text_.size() > FLUSH)
-            flush();
+        b64_encode(p, n, &text_[at]);
     }
 
     // The compressed data: base64 of the header, then of the blocks as one stream,
-    // a window at a time (a multiple of 3 bytes, so that only the stream's end is
-    // padded): the blocks are read where lz4_blocks left them, and the window and
-    // the text are the same memory for every array.
+    // read where lz4_blocks left them, a window at a time (a multiple of 3 bytes, so
+    // that only the stream's end is padded).  A stream of one window goes into the
+    // text; a longer one straight to the file, the windows shared by the threads:
+    // each gathers a window's bytes and encodes them into buffers of its own (the
+    // same memory for every array), then writes them once the windows before are
+    // written, so that one thread's write overlaps the others' encoding.
     void binary(const Lz4Blocks &z)
     {
         encode(reinterpret_cast<const unsigned char *>(z.header.data()), z.header_bytes());
-        if (!window_)
-            window_ = huge_array<unsigned char>(WINDOW);
-        size_t fill = 0;
-        z.each([&](const char *p, size_t n) {
-            while (n) {
-                const size_t k = std::min(n, WINDOW - fill);
-                std::memcpy(window_.get() + fill, p, k);
-                fill += k, p += k, n -= k;
-                if (fill == WINDOW) {
-                    encode(window_.get(), WINDOW);
-                    fill = 0;
-                }
+        const size_t nblocks = z.where.size(), n = z.size;
+        std::vector<size_t> start(nblocks + 1, 0);  // each block's place in the stream
+        for (size_t b = 0; b < nblocks; b++)
+            start[b + 1] = start[b] + (size_t)z.header[3 + b];
+        // the stream's bytes [s, e) into out
+        auto gather = [&](size_t s, size_t e, unsigned char *out) {
+            size_t b =
+                (size_t)(std::upper_bound(start.begin(), start.end(), s) - start.begin()) - 1;
+            for (; s < e; b++) {
+                const size_t k = std::min(e, start[b + 1]) - s;
+                const Lz4Spool &spool = z.spools[(size_t)z.where[b].first];
+                std::memcpy(out, spool.data.get() + z.where[b].second + (s - start[b]), k);
+                out += k, s += k;
+            }
+        };
+        const size_t windows = (n + WINDOW - 1) / WINDOW;
+        const int threads = (int)std::min((size_t)threads_, windows);
+        while (buffers_.size() < (size_t)std::max(threads, 1))
+            buffers_.emplace_back(huge_array<unsigned char>(WINDOW),
+                                  huge_array<char>(b64_size(WINDOW)));
+        if (windows <= 1) {
+            gather(0, n, buffers_[0].first.get());
+            encode(buffers_[0].first.get(), n);
+            return;
+        }
+        flush();
+        std::mutex m;
+        std::condition_variable turn;
+        size_t written = 0;  // windows written
+        bool failed = false;
+        parallel_chunks(windows, 1, threads, [&](size_t w, size_t, int worker) {
+            try {
+                const size_t s = w * WINDOW, e = std::min(n, s + WINDOW);
+                auto &buf = buffers_[(size_t)worker];
+                gather(s, e, buf.first.get());
+                b64_encode(buf.first.get(), e - s, buf.second.get());
+                std::unique_lock<std::mutex> lk(m);
+                turn.wait(lk, [&] { return written == w || failed; });
+                if (failed)
+                    return;  // parallel_chunks rethrows the first failure
+                out_.write(buf.second.get(), b64_size(e - s));
+                written++;
+                turn.notify_all();
+            } catch (...) {
+                std::lock_guard<std::mutex> lk(m);
+                failed = true;
+                turn.notify_all();
+                throw;
             }
         });
-        encode(window_.get(), fill);
     }
 
     Output out_;
     int threads_;
     std::string text_;
-    HugeArray<unsigned char> window_;
+    // each thread's window: its bytes, their base64
+    std::vector<std::pair<HugeArray<unsigned char>, HugeArray<char>>> buffers_;
     std::vector<Lz4Spool> spools_;  // the last array's, for the next
 };
 
@@ -273,14 +311,14 @@ bool mark_surface(const oct_tree_t *tree, uint32_t i, HugeVector<uint8_t> &s)
 struct Tree {
     uint64_t index;                  // in the grid (x fastest)
     HtgNode root;
-    size_t first, count;             // its nodes' positions in the output order
-    size_t first_split;              // its split nodes in Order::split
+    size_t first = 0, count = 0;     // its nodes' positions in the output order
+    HugeVector<HtgNode> split;       // its split nodes, in that order
     std::vector<int64_t> per_depth;  // nodes at each depth of the tree
+    Bits desc;                       // its descriptor (2.0: every depth but the last)
 };
 
 struct Order {
     std::vector<Tree> trees;
-    HugeVector<HtgNode> split;
     size_t total = 0;
 
     // The nodes at positions [s, e) into out.
@@ -298,7 +336,7 @@ struct Order {
             if (i == 0) {
                 *out++ = t.root;
             } else {
-                const HtgNode &parent = split[t.first_split + (i - 1) / 8];
+                const HtgNode &parent = t.split[(i - 1) / 8];
                 *out++ = child_of(parent, OCT_NODE_VALUE(tree->nodes[parent.node]),
                                   (unsigned)((i - 1) & 7));
             }
@@ -517,29 +555,26 @@ void write_htg_trees(const oct_tree_t *tree, const tape_t *tape, const oct_sourc
         return tree_index(a) < tree_index(b);
     });
 
+    // each tree on its own, over threads: which nodes have surface below them;
+    // the tree breadth first (its split nodes are the queue): its depths, its
+    // descriptor; its split nodes in the output order
     HugeVector<uint8_t> surface(tree->n_nodes);
-    for (const HtgNode &r : roots)
-        mark_surface(tree, r.node, surface);
-
-    // each tree breadth first (its split nodes are the queue): its depths, its
-    // descriptor; the output order
     Order order;
-    HugeVector<HtgNode> bfs;
-    Bits desc;                    // 2.0: all trees, every depth but the last
-    std::vector<Bits> tree_desc;  // 0.0: per tree, every depth
-    for (const HtgNode &r : roots) {
-        Tree t{tree_index(r), r, order.total, 0, order.split.size(), {1}};
-        if (piece) {
-            bfs.clear();
-            tree_desc.emplace_back();
-        }
-        HugeVector<HtgNode> &queue = piece ? bfs : order.split;
-        Bits &d = piece ? tree_desc.back() : desc;
-        const size_t start = queue.size();
-        d.push(is_split(tree, r));
+    order.trees.resize(roots.size());
+    parallel_chunks(roots.size(), 1, writer_threads(tree, roots.size()),
+                    [&](size_t k, size_t, int) {
+        const HtgNode &r = roots[k];
+        mark_surface(tree, r.node, surface);
+        Tree &t = order.trees[k];
+        t.index = tree_index(r);
+        t.root = r;
+        t.per_depth = {1};
+        HugeVector<HtgNode> bfs;
+        HugeVector<HtgNode> &queue = piece ? bfs : t.split;
+        t.desc.push(is_split(tree, r));
         if (is_split(tree, r))
             queue.push_back(r);
-        for (size_t i = start; i < queue.size(); i++) {
+        for (size_t i = 0; i < queue.size(); i++) {
             const HtgNode parent = queue[i];
             const size_t below = (size_t)(parent.depth - r.depth) + 1;
             if (t.per_depth.size() == below)
@@ -548,20 +583,26 @@ void write_htg_trees(const oct_tree_t *tree, const tape_t *tape, const oct_sourc
             const uint32_t first = OCT_NODE_VALUE(tree->nodes[parent.node]);
             for (unsigned c = 0; c < 8; c++) {
                 const HtgNode ch = child_of(parent, first, c);
-                d.push(is_split(tree, ch));
+                t.desc.push(is_split(tree, ch));
                 if (is_split(tree, ch))
                     queue.push_back(ch);
             }
         }
-        t.count = 1 + 8 * (queue.size() - start);
+        t.count = 1 + 8 * queue.size();
         if (piece)
-            split_depth_first(tree, r, order.split);
+            split_depth_first(tree, r, t.split);
         else
-            d.drop((size_t)t.per_depth.back());  // the last depth's 0s are not written
+            t.desc.drop((size_t)t.per_depth.back());  // the last depth's 0s are not written
+    });
+    Bits desc;  // 2.0: all trees' descriptors, one after the other
+    for (Tree &t : order.trees) {
+        t.first = order.total;
         order.total += t.count;
-        order.trees.push_back(std::move(t));
+        if (!piece) {
+            desc.append(t.desc);
+            t.desc = Bits();
+        }
     }
-    HugeVector<HtgNode>().swap(bfs);
     const size_t total = order.total;
     const std::vector<Tree> &trees = order.trees;
 
@@ -597,9 +638,9 @@ void write_htg_trees(const oct_tree_t *tree, const tape_t *tape, const oct_sourc
             t += "      <Tree Index=\"" + std::to_string(tr.index) + "\" GlobalOffset=\"" +
                  std::to_string(offset) + "\" NumberOfVertices=\"" + std::to_string(tr.count) +
                  "\">\n";
-            const Range r = tree_desc[k].range();
-            w.array(8, "Bit", "Descriptor", tree_desc[k].n, tree_desc[k].bytes.data(),
-                    tree_desc[k].bytes.size(), &r);
+            const Range r = tr.desc.range();
+            w.array(8, "Bit", "Descriptor", tr.desc.n, tr.desc.bytes.data(), tr.desc.bytes.size(),
+                    &r);
             t += "        <CellData>\n";
             arrays.write(10, tr.first, tr.count);
             t += "        </CellData>\n      </Tree>\n";
@@ -660,6 +701,46 @@ void nodes_at_depth(const oct_tree_t *tree, const HtgNode &n, int g, std::vector
 }
 
 }  // namespace
+
+std::string vtk_number(double v)
+{
+    if (v != v)
+        return "NaN";
+    if (std::isinf(v))
+        return v < 0 ? "-Infinity" : "Infinity";
+    if (v == 0)
+        return "0";  // -0 too
+    // the shortest digits that read back as v, closest to it (to_chars), as
+    // [-]d[.ddd]e(+|-)x
+    char sci[32];
+    const std::to_chars_result r =
+        std::to_chars(sci, sci + sizeof sci - 1, v, std::chars_format::scientific);
+    *r.ptr = 0;
+    const char *e = std::strchr(sci, 'e');
+    const bool negative = sci[0] == '-';
+    std::string digits;
+    for (const char *p = sci + negative; p < e; p++)
+        if (*p != '.')
+            digits += *p;
+    const int exponent = std::atoi(e + 1);  // of the first digit
+    const int k = (int)digits.size(), point = exponent + 1;  // digits before the point
+    std::string s = negative ? "-" : "";
+    if (exponent >= -6 && exponent < 21) {
+        if (point <= 0)
+            s += "0." + std::string((size_t)-point, '0') + digits;
+        else if (point >= k)
+            s += digits + std::string((size_t)(point - k), '0');
+        else
+            s += digits.substr(0, (size_t)point) + "." + digits.substr((size_t)point);
+    } else {
+        s += digits[0];
+        if (k > 1)
+            s += "." + digits.substr(1);
+        s += exponent < 0 ? "e-" : "e+";
+        s += std::to_string(std::abs(exponent));
+    }
+    return s;
+}
 
 void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
                    const char *path)

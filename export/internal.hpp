@@ -1,6 +1,6 @@
 // ivoct export/ — what the translation units share (internal to export/).
 //
-// vtk.cpp and htg_xml.cpp hold everything that includes VTK, vdb.cpp everything
+// vtk.cpp holds everything that includes VTK, vdb.cpp everything
 // that includes OpenVDB (slow to compile: one file); each library's files are a
 // module of their own, loaded on first use (module.h).  The other files need
 // neither.  They meet here through plain types.
@@ -108,6 +108,8 @@ public:
     FILE *file() { return f_.f; }
     const char *path() const { return path_.c_str(); }
     void write(const void *data, size_t n);
+    // The bytes written so far (the end of the file).
+    uint64_t size() const { return size_; }
     // A temporary file, which write_at may rewrite (not a device or a pipe,
     // written in place).
     bool seekable() const { return f_.tmp != nullptr; }
@@ -119,6 +121,7 @@ private:
     io_file_t f_;
     bool open_ = false;
     std::string path_;
+    uint64_t size_ = 0;
 };
 
 // A triangle mesh in world coordinates, triangles facing outwards.
@@ -149,14 +152,21 @@ void vdb_write(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *s
 Mesh vdb_mesh(const oct_tree_t *tree, const tape_t *tape);
 void vdb_info(const char *path, FILE *out);
 
-// vtu_xml.cpp (.vtu); htg_xml.cpp (.htg) and vtk.cpp (the rest) in the VTK module
-// (module.h), reached through module_load.cpp; vtk_load as vdb_load.
+// vtu_xml.cpp (.vtu) and htg_xml.cpp (.htg): VTK's XML formats written without VTK;
+// vtk.cpp (the rest) in the VTK module (module.h), reached through
+// module_load.cpp; vtk_load as vdb_load.
 void vtk_load(const char *path);
 void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *path);
 void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
                    const char *path);
 void vtk_write_htg_piece(const oct_tree_t *part, const tape_t *tape, const oct_source_t *src,
                          int depth, const uint64_t *frontier, size_t n, int top, const char *path);
+// A double as VTK 9.1's vtkNumberToString writes it (double-conversion's
+// EcmaScriptConverter, ToShortest): the shortest digits that read back as v, in
+// decimal notation for decimal exponents -6 to 20 (0.000001, 123, no trailing
+// point), else as d.ddde+x or d.ddde-x; -0 as "0", "NaN", "Infinity",
+// "-Infinity".  The .htg's attributes (htg_xml.cpp).
+std::string vtk_number(double v);
 void vtk_write_vtp(const Mesh &mesh, const oct_source_t *src, const char *path);
 void vtk_info(const char *path, FILE *out);
 
@@ -305,6 +315,13 @@ Lz4Blocks lz4_blocks(size_t n, int threads, const BlockBytes &bytes, const char 
 // The same for n bytes held at data.
 Lz4Blocks lz4_blocks(const void *data, size_t n, int threads, const char *path,
                      std::vector<Lz4Spool> reuse = {});
+// The same compressed data written to the end of `file` (seekable) as they are
+// made, never held: room for the header, the blocks in order as the threads
+// compress them (a few dozen blocks ahead of the one written next, at most),
+// then the header written into its room.  Returns the header and size (no
+// blocks: `where` and `spools` are empty).
+Lz4Blocks lz4_stream(Output &file, size_t n, int threads, const BlockBytes &bytes);
+Lz4Blocks lz4_stream(Output &file, const void *data, size_t n, int threads);
 
 // vtkDataArray::GetRange of one component: the least and greatest value, NaN
 // skipped; without any value VTK_DOUBLE_MAX, VTK_DOUBLE_MIN.  Integers compare

@@ -7,9 +7,9 @@
  * them are built as modules, opened (dlopen) by module_load.cpp the first
  * time they are needed:
  *   libivoct_openvdb.so  vdb.cpp: .vdb files, meshes, `ivoct info` of a .vdb;
- *   libivoct_vtk.so      vtk.cpp, htg_xml.cpp: .htg files (VTK's number
- *                        formatting), .vtp meshes, `ivoct info` of VTK files.
- * (The .vtu writer and the LZ4 blocks of the XML files need no VTK library.)
+ *   libivoct_vtk.so      vtk.cpp: .vtp meshes, `ivoct info` of VTK files.
+ * (The .vtu and .htg writers and the LZ4 blocks of the XML files need no VTK
+ * library.)
  *
  * A module reaches the rest of ivoct only through the host functions below,
  * which the loader fills with its own: the temporary-file registry of io/
@@ -40,7 +40,7 @@ extern "C" {
 
 /* Changed whenever a table below, or a type they pass, changes: the loader
  * refuses a module built with another value. */
-#define IVOCT_MODULE_ABI 2u
+#define IVOCT_MODULE_ABI 3u
 
 /* The modules' file names, and the name of the one function each exports. */
 #define IVOCT_MODULE_OPENVDB "libivoct_openvdb.so"
@@ -57,15 +57,9 @@ typedef struct ivoct_module_host {
     void *(*mem_huge_realloc)(void *p, size_t bytes);
     tape_ws_t *(*tape_ws_new)(uint32_t max_clauses);
     void (*tape_ws_free)(tape_ws_t *ws);
-    void (*tape_eval_point)(const tape_t *t, tape_ws_t *ws, size_t n, const double *x,
-                            const double *y, const double *z, double *out);
-    void (*tape_eval_interval)(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *box,
-                               iv_t *out);
     void (*tape_eval_point_grad)(const tape_t *t, tape_ws_t *ws, size_t n, const double *x,
                                  const double *y, const double *z, tape_point_grad_t *out);
     void (*oct_unmorton)(uint64_t code, int depth, uint32_t *ix, uint32_t *iy, uint32_t *iz);
-    uint64_t (*oct_morton)(uint32_t ix, uint32_t iy, uint32_t iz, int depth);
-    int (*oct_leaf_certain)(const oct_tree_t *tree, uint32_t i);
 } ivoct_module_host_t;
 
 /* What the modules offer.  Each function returns 0, or -1 with a message in
@@ -80,11 +74,6 @@ typedef struct ivoct_vdb_api {
 } ivoct_vdb_api_t;
 
 typedef struct ivoct_vtk_api {
-    int (*write_htg)(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
-                     const char *path, char *msg, size_t msg_size);
-    int (*write_htg_piece)(const oct_tree_t *part, const tape_t *tape, const oct_source_t *src,
-                           int depth, const uint64_t *frontier, size_t n, int top,
-                           const char *path, char *msg, size_t msg_size);
     int (*write_vtp)(const void *mesh, const oct_source_t *src, const char *path, char *msg,
                      size_t msg_size);
     int (*info)(const char *path, FILE *out, char *msg, size_t msg_size);

@@ -36,15 +36,6 @@ void *mem_huge_alloc(size_t bytes) { return host->mem_huge_alloc(bytes); }
 void *mem_huge_realloc(void *p, size_t bytes) { return host->mem_huge_realloc(p, bytes); }
 tape_ws_t *tape_ws_new(uint32_t max_clauses) { return host->tape_ws_new(max_clauses); }
 void tape_ws_free(tape_ws_t *ws) { host->tape_ws_free(ws); }
-void tape_eval_point(const tape_t *t, tape_ws_t *ws, size_t n, const double *x, const double *y,
-                     const double *z, double *out)
-{
-    host->tape_eval_point(t, ws, n, x, y, z, out);
-}
-void tape_eval_interval(const tape_t *t, tape_ws_t *ws, size_t n, const iv_box_t *box, iv_t *out)
-{
-    host->tape_eval_interval(t, ws, n, box, out);
-}
 void tape_eval_point_grad(const tape_t *t, tape_ws_t *ws, size_t n, const double *x,
                           const double *y, const double *z, tape_point_grad_t *out)
 {
@@ -54,10 +45,5 @@ void oct_unmorton(uint64_t code, int depth, uint32_t *ix, uint32_t *iy, uint32_t
 {
     host->oct_unmorton(code, depth, ix, iy, iz);
 }
-uint64_t oct_morton(uint32_t ix, uint32_t iy, uint32_t iz, int depth)
-{
-    return host->oct_morton(ix, iy, iz, depth);
-}
-int oct_leaf_certain(const oct_tree_t *tree, uint32_t i) { return host->oct_leaf_certain(tree, i); }
 
 }  // extern "C"

@@ -1,6 +1,6 @@
 // ivoct export/ — the modules (module.h) opened on first use, and the functions
-// of internal.hpp that they hold (vdb_*, vtk_write_htg*, vtk_write_vtp,
-// vtk_info) called through them.
+// of internal.hpp that they hold (vdb_*, vtk_write_vtp, vtk_info) called through
+// them.
 #include <dlfcn.h>
 #include <unistd.h>
 
@@ -29,8 +29,8 @@ const ivoct_module_host_t host_functions = {
     io_open,     io_commit,    io_abort,
     ivoct_error_clear,
     mem_huge_alloc, mem_huge_realloc,
-    tape_ws_new, tape_ws_free, tape_eval_point, tape_eval_interval, tape_eval_point_grad,
-    oct_unmorton, oct_morton, oct_leaf_certain,
+    tape_ws_new, tape_ws_free, tape_eval_point_grad,
+    oct_unmorton,
 };
 
 bool in_build_tree(const char *path)
@@ -156,23 +156,6 @@ void vdb_info(const char *path, FILE *out)
     const ivoct_vdb_api_t &m = vdb(reading(path));
     char msg[512] = "";
     check(m.info(path, out, msg, sizeof msg), msg);
-}
-
-void vtk_write_htg(const oct_tree_t *tree, const tape_t *tape, const oct_source_t *src,
-                   const char *path)
-{
-    const ivoct_vtk_api_t &m = vtk(writing(path));
-    char msg[512] = "";
-    check(m.write_htg(tree, tape, src, path, msg, sizeof msg), msg);
-}
-
-void vtk_write_htg_piece(const oct_tree_t *part, const tape_t *tape, const oct_source_t *src,
-                         int depth, const uint64_t *frontier, size_t n, int top, const char *path)
-{
-    const ivoct_vtk_api_t &m = vtk(writing(path));
-    char msg[512] = "";
-    check(m.write_htg_piece(part, tape, src, depth, frontier, n, top, path, msg, sizeof msg),
-          msg);
 }
 
 void vtk_write_vtp(const Mesh &mesh, const oct_source_t *src, const char *path)

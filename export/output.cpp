@@ -27,15 +27,19 @@ void Output::write(const void *data, size_t n)
 {
     if (n && fwrite(data, 1, n, f_.f) != n)
         throw Error("cannot write " + path_ + ": " + std::strerror(errno ? errno : EIO));
+    size_ += n;
 }
 
 void Output::write_at(uint64_t offset, const void *data, size_t n)
 {
     if (!seekable())
         throw Error("cannot write " + path_ + ": a device or a pipe cannot be rewritten");
+    if (offset + n > size_)
+        throw Error("cannot write " + path_ + ": a rewrite past the end (a bug of ivoct)");
     if (fseeko(f_.f, (off_t)offset, SEEK_SET) != 0)
         throw Error("cannot write " + path_ + ": " + std::strerror(errno ? errno : EIO));
-    write(data, n);
+    if (n && fwrite(data, 1, n, f_.f) != n)
+        throw Error("cannot write " + path_ + ": " + std::strerror(errno ? errno : EIO));
     if (fseeko(f_.f, 0, SEEK_END) != 0)
         throw Error("cannot write " + path_ + ": " + std::strerror(errno ? errno : EIO));
 }

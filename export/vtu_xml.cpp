@@ -472,9 +472,10 @@ struct Array {
     std::string attributes;  // from type to format="appended"
     Ranges ranges;
     Range range;
-    // the compressed data, made into the memory of `reuse` (the spools of the
-    // array before); sets range where the blocks give it
-    std::function<Lz4Blocks(Array &, std::vector<Lz4Spool> reuse)> make;
+    // the compressed data, written to the end of `stream` as they are made
+    // (lz4_stream) or, without one, made into the memory of `reuse` (the spools
+    // of the array before); sets range where the blocks give it
+    std::function<Lz4Blocks(Array &, Output *stream, std::vector<Lz4Spool> reuse)> make;
     uint64_t offset = 0;  // of the data in the appended data, once made
 };
 
@@ -493,8 +494,9 @@ Array held_array(std::string attributes, Array::Ranges ranges, Range range, cons
                  size_t n, const char *path)
 {
     return {std::move(attributes), ranges, range,
-            [data, n, path](Array &, std::vector<Lz4Spool> reuse) {
-                return lz4_blocks(data, n, 1, path, std::move(reuse));
+            [data, n, path](Array &, Output *stream, std::vector<Lz4Spool> reuse) {
+                return stream ? lz4_stream(*stream, data, n, 1)
+                              : lz4_blocks(data, n, 1, path, std::move(reuse));
             }};
 }
 
@@ -505,20 +507,22 @@ template <class T, class F>
 Array made_array(const char *type, const char *name, int components, size_t count,
                  Array::Ranges ranges, int threads, const char *path, F fill)
 {
-    auto make = [count, ranges, threads, path, fill](Array &a, std::vector<Lz4Spool> reuse) {
+    auto make = [count, ranges, threads, path, fill](Array &a, Output *stream,
+                                                     std::vector<Lz4Spool> reuse) {
         const size_t nblocks = (count * sizeof(T) + LZ4_BLOCK - 1) / LZ4_BLOCK;
         std::vector<Range> block_range(ranges == Array::FILLED ? nblocks : 0);
-        Lz4Blocks z = lz4_blocks(
-            count * sizeof(T), threads,
-            [&](size_t at, size_t bytes, unsigned char *scratch, int) -> const void * {
-                T *out = reinterpret_cast<T *>(scratch);
-                const size_t k = bytes / sizeof(T);
-                fill(at / sizeof(T), k, out);
-                if (!block_range.empty())
-                    block_range[at / LZ4_BLOCK] = range_of(out, k);
-                return scratch;
-            },
-            path, std::move(reuse));
+        const BlockBytes block = [&](size_t at, size_t bytes, unsigned char *scratch,
+                                     int) -> const void * {
+            T *out = reinterpret_cast<T *>(scratch);
+            const size_t k = bytes / sizeof(T);
+            fill(at / sizeof(T), k, out);
+            if (!block_range.empty())
+                block_range[at / LZ4_BLOCK] = range_of(out, k);
+            return scratch;
+        };
+        const size_t n = count * sizeof(T);
+        Lz4Blocks z = stream ? lz4_stream(*stream, n, threads, block)
+                             : lz4_blocks(n, threads, block, path, std::move(reuse));
         if (ranges == Array::FILLED) {
             a.range = Range();
             for (const Range &r : block_range)
@@ -663,12 +667,12 @@ void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *
         return t;
     };
 
-    // Into a file, each array's data written once made, into the memory of the
-    // array before (one array's compressed blocks held at a time), and the XML
-    // written again over its first draft once the data have given their offsets
-    // and ranges: its length does not change (the values fit the room VTK
-    // reserves for them).  Into a device or a pipe, which cannot be rewritten,
-    // the data are held until the XML is known.
+    // Into a file, each array's data written as they are made (lz4_stream: its
+    // header rewritten once its blocks are), and the XML written again over its
+    // first draft once the data have given their offsets and ranges: its length
+    // does not change (the values fit the room VTK reserves for them).  Into a
+    // device or a pipe, which cannot be rewritten, the data are held until the
+    // XML is known (each array's made into the memory of the one before).
     Output out(path);
     const bool in_place = !out.seekable();
     std::string draft;
@@ -684,15 +688,11 @@ void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *
     std::vector<Lz4Spool> spools;
     uint64_t offset = 0;
     for (Array *a : order) {
-        Lz4Blocks z = a->make(*a, std::move(spools));
+        Lz4Blocks z = a->make(*a, in_place ? nullptr : &out, std::move(spools));
         a->offset = offset;
         offset += z.bytes();
-        if (in_place) {
+        if (in_place)
             held.push_back(std::move(z));
-        } else {
-            write_data(z);
-            spools = std::move(z.spools);
-        }
     }
     static const char end[] = "\n  </AppendedData>\n</VTKFile>\n";
     const std::string t = xml();

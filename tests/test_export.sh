@@ -8,6 +8,8 @@
 # the vdb surface's active voxels, the sdf's signs, the mesh of the sphere
 # (closed, outward, within a voxel of the sphere, area within 1% of 4 pi, the same as
 # pyopenvdb's own mesher gives); OpenVDB's vdb_print reads the .vdb too.
+# Every .htg is also compared byte for byte with what VTK's own writer writes of it
+# (tests/same_as_vtk_htg.py; test_vtk_number checks its numbers on their own).
 # Then the failures: a full device, a missing folder, a file too large
 # (ulimit -f: a write that fails midway) give exit 1, one line on stderr, and
 # no file or temporary left behind; corrupt files give `ivoct info` exit 2.
@@ -117,6 +119,20 @@ for s in gumdrop csg-64-spheres; do
             --vdb "$G.vdb" --mesh "$G.obj"
 done
 
+# ---- the .htg is what VTK's own writer writes (tests/same_as_vtk_htg.py) ------------------------
+# every scene at depth 5, a tree with certain leaves, and the coarse leaves above
+H=$TMP/htg
+mkdir -p "$H"
+for s in "$SCENES"/*.ini; do
+    n=$(basename "$s" .ini)
+    run 0 "$n depth 5 --htg" -- build "$s" --depth 5 --quiet --htg "$H/$n.htg"
+done
+run 0 "sphere --certain --htg" -- build "$SCENES/sphere.ini" --depth 6 --certain --quiet \
+    --htg "$H/sphere-certain.htg"
+if "$PY" "$SRC/tests/same_as_vtk_htg.py" "$H"/*.htg "$R.htg"; then ok; else
+    fail ".htg not byte for byte what VTK's writer writes (above)"
+fi
+
 # ---- usage errors: exit 2 before any build ----------------------------------------------------
 run 2 "--mesh .stl" -- build "$SCENES/sphere.ini" --depth 4 --mesh "$TMP/m.stl" \
     && one_line_error "--mesh .stl" "m.stl" ".vtp, .ply or .obj"
@@ -159,8 +175,8 @@ done
 
 # ---- the modules (export/module.h): loaded by the outputs that need them only -----------------
 # The CLI links neither libopenvdb nor VTK (its start-up would pay for them): a .vdb, a
-# mesh and `ivoct info` of a .vdb load libivoct_openvdb.so; a .htg, a .vtp and `ivoct
-# info` of a VTK file load libivoct_vtk.so; the CSV and the .vtu need neither.
+# mesh and `ivoct info` of a .vdb load libivoct_openvdb.so; a .vtp and `ivoct info` of a
+# VTK file load libivoct_vtk.so; the CSV, the .vtu and the .htg need neither.
 if readelf -d "$BIN" | grep -q 'NEEDED.*\(libopenvdb\|libvtk\)'; then
     fail "ivoct links libopenvdb or VTK (they belong to the modules)"
 else
@@ -177,11 +193,10 @@ loaded_by() {
         fail "$what: loaded the OpenVDB module $got_vdb, the VTK module $got_vtk; expected $want_vdb, $want_vtk"
 }
 M=$TMP/modules
-loaded_by "--cells --vtu --save" 0 0 -- build "$SCENES/sphere.ini" --depth 4 --quiet \
-    --cells "$M.csv" --vtu "$M.vtu" --save "$M.ivo"
+loaded_by "--cells --vtu --htg --save" 0 0 -- build "$SCENES/sphere.ini" --depth 4 --quiet \
+    --cells "$M.csv" --vtu "$M.vtu" --htg "$M.htg" --save "$M.ivo"
 loaded_by "--vdb" 1 0 -- build "$SCENES/sphere.ini" --depth 4 --quiet --vdb "$M.vdb"
 loaded_by "--mesh .ply" 1 0 -- build "$SCENES/sphere.ini" --depth 4 --quiet --mesh "$M.ply"
-loaded_by "--htg" 0 1 -- build "$SCENES/sphere.ini" --depth 4 --quiet --htg "$M.htg"
 loaded_by "--mesh .vtp" 1 1 -- build "$SCENES/sphere.ini" --depth 4 --quiet --mesh "$M.vtp"
 loaded_by "info .vdb" 1 0 -- info "$M.vdb"
 loaded_by "info .vtu" 0 1 -- info "$M.vtu"
@@ -189,7 +204,7 @@ loaded_by "info .ivo" 0 0 -- info "$M.ivo"
 loaded_by "render" 0 0 -- render "$SCENES/sphere.ini" --size 16x16 --quiet --png "$M.png"
 # without a module: the outputs that need it fail, clearly, and leave nothing; the others work
 for case in "IVOCT_OPENVDB_MODULE vdb vdb libivoct_openvdb.so" "IVOCT_OPENVDB_MODULE mesh ply libivoct_openvdb.so" \
-    "IVOCT_VTK_MODULE htg htg libivoct_vtk.so" "IVOCT_VTK_MODULE mesh vtp libivoct_vtk.so"; do
+    "IVOCT_VTK_MODULE mesh vtp libivoct_vtk.so"; do
     set -- $case
     var=$1 opt=$2 ext=$3 module=$4
     env "$var=$TMP/no-such-module.so" "$BIN" build "$SCENES/sphere.ini" --depth 4 --quiet \
@@ -202,9 +217,10 @@ done
 IVOCT_OPENVDB_MODULE=$SRC/README.md run 1 "--vdb with a file that is not the module" -- \
     build "$SCENES/sphere.ini" --depth 4 --quiet --vdb "$TMP/nomod.vdb" &&
     one_line_error "--vdb with a file that is not the module" "cannot load" "README.md"
-IVOCT_VTK_MODULE=$(dirname "$BIN")/../lib/ivoct/libivoct_openvdb.so run 1 "--htg with the other module" -- \
-    build "$SCENES/sphere.ini" --depth 4 --quiet --htg "$TMP/nomod.htg" &&
-    one_line_error "--htg with the other module" "is not the libivoct_vtk.so of this ivoct"
+IVOCT_VTK_MODULE=$(dirname "$BIN")/../lib/ivoct/libivoct_openvdb.so \
+    run 1 "--mesh .vtp with the other module" -- \
+    build "$SCENES/sphere.ini" --depth 4 --quiet --mesh "$TMP/nomod.vtp" &&
+    one_line_error "--mesh .vtp with the other module" "is not the libivoct_vtk.so of this ivoct"
 IVOCT_OPENVDB_MODULE=$TMP/no-such-module.so run 2 "info of a .vdb without its module" -- \
     info "$M.vdb" && one_line_error "info of a .vdb without its module" "libivoct_openvdb.so"
 IVOCT_VTK_MODULE=$TMP/no-such-module.so run 2 "info of a .vtu without its module" -- \

@@ -26,7 +26,6 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <condition_variable>
 #include <cstdlib>
 #include <cstring>
 #include <memory>
@@ -254,29 +253,21 @@ private:
             return;
         }
         flush();
-        std::mutex m;
-        std::condition_variable turn;
+        Turns turns;
         size_t written = 0;  // windows written
-        bool failed = false;
         parallel_chunks(windows, 1, threads, [&](size_t w, size_t, int worker) {
-            try {
+            turns.run([&] {
                 const size_t s = w * WINDOW, e = std::min(n, s + WINDOW);
                 auto &buf = buffers_[(size_t)worker];
                 gather(s, e, buf.first.get());
                 b64_encode(buf.first.get(), e - s, buf.second.get());
-                std::unique_lock<std::mutex> lk(m);
-                turn.wait(lk, [&] { return written == w || failed; });
-                if (failed)
-                    return;  // parallel_chunks rethrows the first failure
+                std::unique_lock<std::mutex> lk = turns.lock();
+                if (!turns.wait(lk, [&] { return written == w; }))
+                    return;
                 out_.write(buf.second.get(), b64_size(e - s));
                 written++;
-                turn.notify_all();
-            } catch (...) {
-                std::lock_guard<std::mutex> lk(m);
-                failed = true;
-                turn.notify_all();
-                throw;
-            }
+                turns.notify();
+            });
         });
     }
 

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -234,6 +235,43 @@ template <class F> void parallel_chunks(size_t n, size_t chunk, int threads, F &
     if (failure)
         std::rethrow_exception(failure);
 }
+
+// The threads of one parallel_chunks that wait on each other, e.g. to write their
+// chunks' output in order: a thread waits with the lock held (lock(), wait) until
+// the others have done what it needs, and a thread that throws wakes them all
+// (run), so that none waits forever for the one that failed.
+class Turns {
+public:
+    std::unique_lock<std::mutex> lock() { return std::unique_lock<std::mutex>(m_); }
+    // Wait (lk held) until ready(); false if a thread failed meanwhile (the caller
+    // returns: parallel_chunks rethrows the first failure).
+    template <class P> bool wait(std::unique_lock<std::mutex> &lk, P ready)
+    {
+        cv_.wait(lk, [&] { return failed_ || ready(); });
+        return !failed_;
+    }
+    void notify() { cv_.notify_all(); }  // lk held
+    // body() for a chunk; on an exception the waiting threads are woken, and it
+    // is rethrown
+    template <class F> void run(F &&body)
+    {
+        try {
+            body();
+        } catch (...) {
+            {
+                std::lock_guard<std::mutex> lk(m_);
+                failed_ = true;
+            }
+            cv_.notify_all();
+            throw;
+        }
+    }
+
+private:
+    std::mutex m_;
+    std::condition_variable cv_;
+    bool failed_ = false;
+};
 
 // ---- the binary data of VTK's XML files (htg_xml.cpp, vtu_xml.cpp) -------------------
 // What vtkXMLWriter (VTK 9.1) writes for an array of n bytes with UInt64 headers

@@ -1,7 +1,6 @@
 // ivoct export/ — the LZ4 blocks of the VTK XML writers (internal.hpp: lz4_blocks,
 // lz4_stream), compressed over threads: the .vtu and .htg writers.  Only the LZ4
 // library (Debian's liblz4, which VTK itself links for its LZ4 compressor), not VTK.
-#include <condition_variable>
 #include <cstring>
 
 #include <lz4.h>
@@ -101,22 +100,19 @@ Lz4Blocks lz4_stream(Output &file, size_t n, int threads, const BlockBytes &byte
     const std::unique_ptr<char[]> slots(new char[SLOTS * LZ4_BOUND]);
     size_t slot_size[SLOTS];
     bool ready[SLOTS] = {};
-    std::mutex m;
-    std::condition_variable freed;
+    Turns turns;
     size_t written = 0;  // blocks written
-    bool failed = false;
     parallel_chunks(nblocks, 1, threads, [&](size_t b, size_t, int worker) {
-        try {
+        turns.run([&] {
             {
-                std::unique_lock<std::mutex> lk(m);
-                freed.wait(lk, [&] { return b < written + SLOTS || failed; });
-                if (failed)
-                    return;  // parallel_chunks rethrows the first failure
+                std::unique_lock<std::mutex> lk = turns.lock();
+                if (!turns.wait(lk, [&] { return b < written + SLOTS; }))
+                    return;
             }
             char *out = slots.get() + b % SLOTS * LZ4_BOUND;
             const size_t cs = compress_block(n, b, bytes, scratch[(size_t)worker].get(), worker,
                                              out, file.path());
-            std::lock_guard<std::mutex> lk(m);
+            std::unique_lock<std::mutex> lk = turns.lock();
             z.header[3 + b] = (uint64_t)cs;
             slot_size[b % SLOTS] = cs;
             ready[b % SLOTS] = true;
@@ -124,13 +120,8 @@ Lz4Blocks lz4_stream(Output &file, size_t n, int threads, const BlockBytes &byte
                 file.write(slots.get() + k * LZ4_BOUND, slot_size[k]);
                 ready[k] = false;
             }
-            freed.notify_all();
-        } catch (...) {
-            std::lock_guard<std::mutex> lk(m);
-            failed = true;
-            freed.notify_all();
-            throw;
-        }
+            turns.notify();
+        });
     });
     for (size_t b = 0; b < nblocks; b++)
         z.size += z.header[3 + b];

@@ -109,7 +109,8 @@ public:
     FILE *file() { return f_.f; }
     const char *path() const { return path_.c_str(); }
     void write(const void *data, size_t n);
-    // The bytes written so far (the end of the file).
+    // The bytes write() has written so far: the end of the file for a writer
+    // that writes through write() only (write_at checks against it).
     uint64_t size() const { return size_; }
     // A temporary file, which write_at may rewrite (not a device or a pipe,
     // written in place).

@@ -473,9 +473,9 @@ struct Array {
     Ranges ranges;
     Range range;
     // the compressed data, written to the end of `stream` as they are made
-    // (lz4_stream) or, without one, made into the memory of `reuse` (the spools
-    // of the array before); sets range where the blocks give it
-    std::function<Lz4Blocks(Array &, Output *stream, std::vector<Lz4Spool> reuse)> make;
+    // (lz4_stream) or, without one, held (lz4_blocks); sets range where the
+    // blocks give it
+    std::function<Lz4Blocks(Array &, Output *stream)> make;
     uint64_t offset = 0;  // of the data in the appended data, once made
 };
 
@@ -494,9 +494,8 @@ Array held_array(std::string attributes, Array::Ranges ranges, Range range, cons
                  size_t n, const char *path)
 {
     return {std::move(attributes), ranges, range,
-            [data, n, path](Array &, Output *stream, std::vector<Lz4Spool> reuse) {
-                return stream ? lz4_stream(*stream, data, n, 1)
-                              : lz4_blocks(data, n, 1, path, std::move(reuse));
+            [data, n, path](Array &, Output *stream) {
+                return stream ? lz4_stream(*stream, data, n, 1) : lz4_blocks(data, n, 1, path);
             }};
 }
 
@@ -507,8 +506,7 @@ template <class T, class F>
 Array made_array(const char *type, const char *name, int components, size_t count,
                  Array::Ranges ranges, int threads, const char *path, F fill)
 {
-    auto make = [count, ranges, threads, path, fill](Array &a, Output *stream,
-                                                     std::vector<Lz4Spool> reuse) {
+    auto make = [count, ranges, threads, path, fill](Array &a, Output *stream) {
         const size_t nblocks = (count * sizeof(T) + LZ4_BLOCK - 1) / LZ4_BLOCK;
         std::vector<Range> block_range(ranges == Array::FILLED ? nblocks : 0);
         const BlockBytes block = [&](size_t at, size_t bytes, unsigned char *scratch,
@@ -522,7 +520,7 @@ Array made_array(const char *type, const char *name, int components, size_t coun
         };
         const size_t n = count * sizeof(T);
         Lz4Blocks z = stream ? lz4_stream(*stream, n, threads, block)
-                             : lz4_blocks(n, threads, block, path, std::move(reuse));
+                             : lz4_blocks(n, threads, block, path);
         if (ranges == Array::FILLED) {
             a.range = Range();
             for (const Range &r : block_range)
@@ -672,7 +670,7 @@ void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *
     // first draft once the data have given their offsets and ranges: its length
     // does not change (the values fit the room VTK reserves for them).  Into a
     // device or a pipe, which cannot be rewritten, the data are held until the
-    // XML is known (each array's made into the memory of the one before).
+    // XML is known.
     Output out(path);
     const bool in_place = !out.seekable();
     std::string draft;
@@ -680,15 +678,10 @@ void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *
         draft = xml();
         out.write(draft.data(), draft.size());
     }
-    auto write_data = [&out](const Lz4Blocks &z) {
-        out.write(z.header.data(), z.header_bytes());
-        z.each([&out](const char *p, size_t k) { out.write(p, k); });
-    };
     std::vector<Lz4Blocks> held;
-    std::vector<Lz4Spool> spools;
     uint64_t offset = 0;
     for (Array *a : order) {
-        Lz4Blocks z = a->make(*a, in_place ? nullptr : &out, std::move(spools));
+        Lz4Blocks z = a->make(*a, in_place ? nullptr : &out);
         a->offset = offset;
         offset += z.bytes();
         if (in_place)
@@ -698,8 +691,10 @@ void vtk_write_vtu(const oct_tree_t *tree, const oct_source_t *src, const char *
     const std::string t = xml();
     if (in_place) {
         out.write(t.data(), t.size());
-        for (const Lz4Blocks &z : held)
-            write_data(z);
+        for (const Lz4Blocks &z : held) {
+            out.write(z.header.data(), z.header_bytes());
+            z.each([&out](const char *p, size_t k) { out.write(p, k); });
+        }
         out.write(end, sizeof end - 1);
     } else {
         if (t.size() != draft.size())
